@@ -1,0 +1,17 @@
+#include "core/rig.hpp"
+
+#include <algorithm>
+
+namespace scenecal {
+
+const CameraInfo* Rig::FindCamera(const std::string& name) const {
+  const auto it = std::find_if(cameras.begin(), cameras.end(), [&](const CameraInfo& c) { return c.name == name; });
+  return it == cameras.end() ? nullptr : &*it;
+}
+
+const LidarInfo* Rig::FindLidar(const std::string& name) const {
+  const auto it = std::find_if(lidars.begin(), lidars.end(), [&](const LidarInfo& l) { return l.name == name; });
+  return it == lidars.end() ? nullptr : &*it;
+}
+
+}  // namespace scenecal
