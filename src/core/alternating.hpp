@@ -1,0 +1,158 @@
+// The paper's hierarchical alternating optimisation (section III-B/C,
+// equations 12-14), for any number of cameras and lidars.
+//
+// For each alternation i = 0, 1, ...:
+//  - lower level (eq. 13), for every (camera p, lidar L) pair independently:
+//      T^_pL = argmin f_pL(T^) + |T^ (-) T_pL|^2_{P^i},  T_pL (upper) held fixed;
+//  - upper level (eq. 14), for every lidar: the pairs' T_pL from the lower
+//    solutions and the known inter-camera transforms (SolveUpperLevel);
+//  - P^(i+1) = w * P^i.
+// Differences are SE(3) logarithms (geometry.hpp). The lower-level problems are
+// handed to a LowerLevelBackend, so they can run on threads or on MPI ranks.
+#pragma once
+
+#include <chrono>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "core/geometry.hpp"
+#include "core/nelder_mead.hpp"
+
+namespace scenecal {
+
+struct AlternatingOptions {
+  int max_alternations = 20;                 // the paper: 20
+  double initial_sigma_translation_m = 5.0;  // P^0 (the paper: 5 m)
+  double initial_sigma_rotation_rad = 5.0;   // P^0 (the paper: 5 rad)
+  double covariance_shrink = 0.5;            // w in P^(i+1) = w P^i, in (0, 1)
+  // Early stop once both levels moved less than these between two alternations
+  // and every lower solution agrees with its upper one within them.
+  double stop_translation_m = 2e-4;
+  double stop_rotation_rad = 2e-5;
+  // Simplex search of the lower level (the paper: 200 iterations). Its initial
+  // steps are capped by the current penalty sigma, so later alternations
+  // search a neighbourhood of the size the penalty allows.
+  NelderMeadOptions lower;
+  // Used for the inter-camera term when the rig states no T_base_camera_sigma:
+  // sub-millimetre factory calibration, as the paper assumes for the Bumblebee.
+  double default_camera_sigma_translation_m = 0.0005;
+  double default_camera_sigma_rotation_rad = 0.0002;
+  // Wall-clock budget for the whole optimisation (0 = none); when it runs out the
+  // best estimate so far is returned with the termination saying so.
+  double time_budget_s = 0.0;
+
+  bool IsValid(std::string* why = nullptr) const;
+};
+
+// One lower-level problem (eq. 13) as a backend receives it.
+struct LowerLevelTask {
+  int pair = 0;                                            // index into AlternatingProblem::pairs
+  Eigen::Isometry3d T_camera_lidar_upper = Eigen::Isometry3d::Identity();  // T_pL, fixed
+  Eigen::Isometry3d T_camera_lidar_start = Eigen::Isometry3d::Identity();  // where the simplex starts
+  Matrix6d penalty_information = Matrix6d::Identity();    // (P^i)^-1
+  NelderMeadOptions options;
+};
+
+struct LowerLevelOutcome {
+  Eigen::Isometry3d T_camera_lidar = Eigen::Isometry3d::Identity();  // T^_pL
+  double cost = 0.0;       // f_pL(T^) alone (NID or -MI)
+  double objective = 0.0;  // f + penalty
+  NelderMeadSummary summary;
+};
+
+// Solves a batch of lower-level problems (one per pair), in any order or place,
+// returning outcomes in the order of the tasks. Must be deterministic.
+class LowerLevelBackend {
+ public:
+  virtual ~LowerLevelBackend() = default;
+  virtual std::vector<LowerLevelOutcome> Solve(const std::vector<LowerLevelTask>& tasks,
+                                               const StopRequested& stop_requested) = 0;
+};
+
+// The cost of one pair and the hook to refresh its occlusion state at an
+// estimate (called between optimiser runs, never inside one).
+struct PairObjective {
+  std::function<double(const Eigen::Isometry3d& T_camera_lidar)> cost;
+  std::function<void(const Eigen::Isometry3d& T_camera_lidar)> refresh_visibility;  // may be empty
+};
+
+// f + |T^ (-) T_upper|^2_P, minimised by Nelder-Mead from task.T_camera_lidar_start.
+LowerLevelOutcome SolveLowerLevel(const PairObjective& objective, const LowerLevelTask& task,
+                                  const StopRequested& stop_requested);
+
+// Runs the tasks on the calling process, pairs in parallel (TBB).
+class ThreadLowerLevelBackend : public LowerLevelBackend {
+ public:
+  explicit ThreadLowerLevelBackend(std::vector<PairObjective> objectives) : objectives_(std::move(objectives)) {}
+  std::vector<LowerLevelOutcome> Solve(const std::vector<LowerLevelTask>& tasks,
+                                       const StopRequested& stop_requested) override;
+
+ private:
+  std::vector<PairObjective> objectives_;
+};
+
+struct AlternatingCamera {
+  std::string name;
+  Eigen::Isometry3d T_base_camera = Eigen::Isometry3d::Identity();  // known transform
+  std::optional<Vector6d> sigma;  // its 1-sigma from the rig; zeros = exact
+};
+
+struct AlternatingPair {
+  int camera = 0;  // index into AlternatingProblem::cameras
+  int lidar = 0;   // index into AlternatingProblem::lidars
+};
+
+struct AlternatingLidar {
+  std::string name;
+  Eigen::Isometry3d T_base_lidar_initial = Eigen::Isometry3d::Identity();
+};
+
+struct AlternatingProblem {
+  std::vector<AlternatingCamera> cameras;
+  int base_camera = 0;
+  std::vector<AlternatingLidar> lidars;
+  std::vector<AlternatingPair> pairs;  // every (camera, lidar) with data
+
+  bool IsValid(std::string* why = nullptr) const;
+};
+
+// Per alternation, per pair: what Fig. 4 and Fig. 6 of the paper plot.
+struct AlternationRecord {
+  int alternation = 0;
+  double sigma_translation_m = 0.0;  // penalty sigma used at this alternation
+  double sigma_rotation_rad = 0.0;
+  std::vector<Eigen::Isometry3d> T_camera_lidar_lower;  // per pair
+  std::vector<Eigen::Isometry3d> T_camera_lidar_upper;  // per pair, after the upper level
+  std::vector<double> lower_cost;                       // f_p at the lower solution, per pair
+  std::vector<int> lower_evaluations;                   // cost evaluations, per pair
+  std::vector<double> upper_cost;                       // upper-level objective, per lidar
+  double max_change_translation_m = 0.0;                // largest move of either level since the last alternation
+  double max_change_rotation_rad = 0.0;
+  double max_disagreement_translation_m = 0.0;          // largest |T^ (-) T| over pairs
+  double max_disagreement_rotation_rad = 0.0;
+  double elapsed_s = 0.0;
+};
+
+struct AlternatingResult {
+  std::vector<Eigen::Isometry3d> T_base_lidar;           // per lidar
+  std::vector<Eigen::Isometry3d> T_camera_lidar_upper;   // per pair
+  std::vector<Eigen::Isometry3d> T_camera_lidar_lower;   // per pair
+  std::vector<double> pair_cost;                         // f_p at the final lower solution
+  std::vector<AlternationRecord> history;
+  int alternations = 0;
+  int total_evaluations = 0;
+  std::string termination;  // "converged ...", "max alternations", "time budget ..." or an error
+  bool success = false;
+};
+
+using AlternatingProgress = std::function<void(const AlternationRecord&)>;
+
+AlternatingResult SolveAlternating(const AlternatingProblem& problem, const AlternatingOptions& options,
+                                   LowerLevelBackend& backend, const AlternatingProgress& progress = {});
+
+}  // namespace scenecal

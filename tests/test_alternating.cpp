@@ -1,0 +1,168 @@
+// The alternating scheme (paper eq. 12-14) on costs with known minima.
+#include <atomic>
+#include <thread>
+
+#include <gtest/gtest.h>
+
+#include "core/alternating.hpp"
+
+namespace scenecal {
+namespace {
+
+const Eigen::Isometry3d kT_base_right = TransformFromTuple((Vector6d() << 0.24, 0, 0, 0, 0, 0).finished());
+const Eigen::Isometry3d kT_base_lidar_true =
+    TransformFromTuple((Vector6d() << -0.3, 1.2, -4.0, -2.84, 0.06, -0.36).finished());
+
+// A bowl with its minimum at T_min: scale * sum_k (e_k / width_k)^2, e = Log(T * T_min^-1).
+PairObjective Bowl(const Eigen::Isometry3d& T_min, double scale, const Vector6d& width) {
+  PairObjective objective;
+  objective.cost = [=](const Eigen::Isometry3d& T) {
+    const Vector6d e = LogSE3(T * T_min.inverse()).cwiseQuotient(width);
+    return scale * e.squaredNorm();
+  };
+  return objective;
+}
+
+AlternatingProblem StereoProblem(const Eigen::Isometry3d& initial) {
+  AlternatingProblem problem;
+  problem.cameras = {{"left", Eigen::Isometry3d::Identity(), std::nullopt}, {"right", kT_base_right, std::nullopt}};
+  problem.lidars = {{"rear", initial}};
+  problem.pairs = {{0, 0}, {1, 0}};
+  return problem;
+}
+
+Eigen::Isometry3d Perturbed() {
+  return ExpSE3((Vector6d() << 0.06, -0.05, 0.04, 0.02, -0.03, 0.025).finished()) * kT_base_lidar_true;
+}
+
+const Vector6d kWidth = (Vector6d() << 0.05, 0.05, 0.05, 0.02, 0.02, 0.02).finished();
+
+TEST(Alternating, ConsistentPairsConvergeToTheTruthAndTheLevelsAgree) {
+  const AlternatingProblem problem = StereoProblem(Perturbed());
+  ThreadLowerLevelBackend backend({Bowl(kT_base_lidar_true, 1.0, kWidth),
+                                   Bowl(kT_base_right.inverse() * kT_base_lidar_true, 1.0, kWidth)});
+  AlternatingOptions options;
+  int progress_calls = 0;
+  const AlternatingResult result =
+      SolveAlternating(problem, options, backend, [&](const AlternationRecord&) { ++progress_calls; });
+  ASSERT_TRUE(result.success) << result.termination;
+  EXPECT_EQ(progress_calls, result.alternations);
+  EXPECT_EQ(static_cast<int>(result.history.size()), result.alternations);
+  EXPECT_LT(TranslationError(result.T_base_lidar[0], kT_base_lidar_true), 1e-3);
+  EXPECT_LT(RotationErrorDegrees(result.T_base_lidar[0], kT_base_lidar_true), 0.02);
+  for (std::size_t p = 0; p < 2; ++p) {
+    EXPECT_LT(TranslationError(result.T_camera_lidar_lower[p], result.T_camera_lidar_upper[p]), 1e-3);
+    EXPECT_LT(RotationErrorDegrees(result.T_camera_lidar_lower[p], result.T_camera_lidar_upper[p]), 0.01);
+  }
+  // The penalty shrinks by sqrt(w) per alternation.
+  ASSERT_GE(result.history.size(), 2u);
+  EXPECT_NEAR(result.history[1].sigma_translation_m / result.history[0].sigma_translation_m,
+              std::sqrt(options.covariance_shrink), 1e-12);
+}
+
+TEST(Alternating, InconsistentPairsMeetInBetweenUnderTheKnownTransform) {
+  // The right pair's minimum implies a lidar 2 cm further along z than the left's.
+  Eigen::Isometry3d implied_right = kT_base_lidar_true;
+  implied_right.translation().z() += 0.02;
+  const AlternatingProblem problem = StereoProblem(Perturbed());
+  ThreadLowerLevelBackend backend({Bowl(kT_base_lidar_true, 1.0, kWidth),
+                                   Bowl(kT_base_right.inverse() * implied_right, 1.0, kWidth)});
+  AlternatingOptions options;
+  options.max_alternations = 30;
+  const AlternatingResult result = SolveAlternating(problem, options, backend);
+  ASSERT_TRUE(result.success) << result.termination;
+  const double z_offset = result.T_base_lidar[0].translation().z() - kT_base_lidar_true.translation().z();
+  EXPECT_GT(z_offset, 0.003);
+  EXPECT_LT(z_offset, 0.017);
+  // The known transform holds within a few of its sigmas (default 0.5 mm).
+  const Eigen::Isometry3d implied_by_right = kT_base_right * result.T_camera_lidar_upper[1];
+  EXPECT_LT(TranslationError(implied_by_right, result.T_base_lidar[0]), 0.003);
+}
+
+TEST(Alternating, StopsEarlyWhenSettled) {
+  // Start at the truth: nothing moves, so it stops once the levels agree.
+  const AlternatingProblem problem = StereoProblem(kT_base_lidar_true);
+  ThreadLowerLevelBackend backend({Bowl(kT_base_lidar_true, 1.0, kWidth),
+                                   Bowl(kT_base_right.inverse() * kT_base_lidar_true, 1.0, kWidth)});
+  AlternatingOptions options;
+  options.stop_translation_m = 1e-3;
+  options.stop_rotation_rad = 1e-3;
+  const AlternatingResult result = SolveAlternating(problem, options, backend);
+  ASSERT_TRUE(result.success);
+  EXPECT_LT(result.alternations, options.max_alternations);
+  EXPECT_NE(result.termination.find("converged"), std::string::npos) << result.termination;
+}
+
+TEST(Alternating, TimeBudgetEndsWithTheBestEstimateSoFar) {
+  const AlternatingProblem problem = StereoProblem(Perturbed());
+  PairObjective slow = Bowl(kT_base_lidar_true, 1.0, kWidth);
+  const auto fast_cost = slow.cost;
+  slow.cost = [fast_cost](const Eigen::Isometry3d& T) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    return fast_cost(T);
+  };
+  PairObjective slow_right = Bowl(kT_base_right.inverse() * kT_base_lidar_true, 1.0, kWidth);
+  ThreadLowerLevelBackend backend({slow, slow_right});
+  AlternatingOptions options;
+  options.time_budget_s = 0.3;
+  const AlternatingResult result = SolveAlternating(problem, options, backend);
+  ASSERT_TRUE(result.success) << result.termination;
+  EXPECT_NE(result.termination.find("time budget"), std::string::npos) << result.termination;
+  EXPECT_LT(result.alternations, options.max_alternations);
+  // Still better than the start.
+  EXPECT_LT(TranslationError(result.T_base_lidar[0], kT_base_lidar_true),
+            TranslationError(Perturbed(), kT_base_lidar_true));
+}
+
+TEST(Alternating, TwoLidarsThreeCamerasSolveIndependently) {
+  AlternatingProblem problem;
+  const Eigen::Isometry3d T_base_centre = TransformFromTuple((Vector6d() << 0.12, 0, 0, 0, 0, 0).finished());
+  problem.cameras = {{"left", Eigen::Isometry3d::Identity(), std::nullopt},
+                     {"centre", T_base_centre, std::nullopt},
+                     {"right", kT_base_right, std::nullopt}};
+  const Eigen::Isometry3d front_true = TransformFromTuple((Vector6d() << 0.1, 1.3, 0.2, -0.04, -1.45, 0.03).finished());
+  problem.lidars = {{"rear", Perturbed()}, {"front", ExpSE3(Vector6d::Constant(0.01)) * front_true}};
+  std::vector<PairObjective> objectives;
+  for (int lidar = 0; lidar < 2; ++lidar) {
+    for (int camera = 0; camera < 3; ++camera) {
+      problem.pairs.push_back({camera, lidar});
+      const Eigen::Isometry3d truth = lidar == 0 ? kT_base_lidar_true : front_true;
+      objectives.push_back(Bowl(problem.cameras[static_cast<std::size_t>(camera)].T_base_camera.inverse() * truth, 1.0, kWidth));
+    }
+  }
+  ThreadLowerLevelBackend backend(std::move(objectives));
+  const AlternatingResult result = SolveAlternating(problem, AlternatingOptions{}, backend);
+  ASSERT_TRUE(result.success) << result.termination;
+  EXPECT_LT(TranslationError(result.T_base_lidar[0], kT_base_lidar_true), 1e-3);
+  EXPECT_LT(TranslationError(result.T_base_lidar[1], front_true), 1e-3);
+  EXPECT_EQ(result.T_camera_lidar_upper.size(), 6u);
+}
+
+TEST(Alternating, DeterministicForTheSameInput) {
+  const auto run = [] {
+    ThreadLowerLevelBackend backend({Bowl(kT_base_lidar_true, 1.0, kWidth),
+                                     Bowl(kT_base_right.inverse() * kT_base_lidar_true, 2.0, kWidth)});
+    return SolveAlternating(StereoProblem(Perturbed()), AlternatingOptions{}, backend);
+  };
+  const AlternatingResult a = run();
+  const AlternatingResult b = run();
+  ASSERT_EQ(a.alternations, b.alternations);
+  EXPECT_EQ((a.T_base_lidar[0].matrix() - b.T_base_lidar[0].matrix()).cwiseAbs().maxCoeff(), 0.0);
+}
+
+TEST(Alternating, RejectsInvalidInput) {
+  AlternatingProblem problem = StereoProblem(Perturbed());
+  problem.pairs.push_back({5, 0});
+  ThreadLowerLevelBackend backend({});
+  const AlternatingResult result = SolveAlternating(problem, AlternatingOptions{}, backend);
+  EXPECT_FALSE(result.success);
+  EXPECT_NE(result.termination.find("invalid"), std::string::npos);
+  AlternatingOptions bad;
+  bad.covariance_shrink = 1.5;
+  std::string why;
+  EXPECT_FALSE(bad.IsValid(&why));
+  EXPECT_FALSE(why.empty());
+}
+
+}  // namespace
+}  // namespace scenecal
