@@ -33,6 +33,11 @@ struct CameraModel {
   // point is not in front of the camera (z <= min_depth) or when the pixel
   // falls outside the image shrunk by margin_px on every side; *pixel is still
   // written when the point is in front, so callers can inspect it.
+  // Accepted pixels: u in [-0.5 + margin, width - 0.5 - margin), v likewise
+  // with height, i.e. pixels whose rounded index floor(u + 0.5) lies in the
+  // image (pixel squares, not only centres). Also false beyond the range where
+  // the distortion is monotonic (MonotonicDistortionLimitSquared), where the
+  // polynomial folds far off-axis points back into the image.
   bool Project(const Eigen::Vector3d& p_camera, Eigen::Vector2d* pixel, double margin_px = 0.0,
                double min_depth = 1e-6) const;
 
@@ -40,8 +45,16 @@ struct CameraModel {
   Eigen::Vector2d DistortAndScale(const Eigen::Vector2d& normalised) const;
 
   // Pixel -> ray direction in the camera frame with z = 1 (iterative inverse of
-  // the distortion; exact for pinhole).
+  // the distortion; exact for pinhole). Pixels beyond the distortion's
+  // monotonic range (unreachable by Project) give the ray at that limit.
   Eigen::Vector3d Unproject(const Eigen::Vector2d& pixel) const;
+
+  // The distortion is monotonic in the radius (d r_distorted / d r > 0) for
+  // s < this limit, where s is the normalised radius squared (x^2 + y^2)/z^2
+  // for radtan and theta^2 (angle from the optical axis, rad^2) for
+  // equidistant; at most (pi/2)^2 for equidistant, infinity for pinhole and
+  // for radtan distortions that never fold.
+  double MonotonicDistortionLimitSquared() const;
 };
 
 }  // namespace scenecal

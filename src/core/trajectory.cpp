@@ -1,6 +1,7 @@
 #include "core/trajectory.hpp"
 
 #include <algorithm>
+#include <utility>
 
 #include "core/geometry.hpp"
 
