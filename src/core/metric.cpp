@@ -1,0 +1,214 @@
+#include "core/metric.hpp"
+
+#include <algorithm>
+#include <numeric>
+
+namespace scenecal {
+
+const char* BinningName(Binning binning) {
+  switch (binning) {
+    case Binning::kHard:
+      return "hard";
+    case Binning::kBSpline:
+      return "bspline";
+  }
+  return "unknown";
+}
+
+std::optional<Binning> ParseBinning(std::string_view name) {
+  if (name == "hard") return Binning::kHard;
+  if (name == "bspline") return Binning::kBSpline;
+  return std::nullopt;
+}
+
+const char* MetricKindName(MetricKind kind) {
+  switch (kind) {
+    case MetricKind::kNid:
+      return "nid";
+    case MetricKind::kMi:
+      return "mi";
+  }
+  return "unknown";
+}
+
+std::optional<MetricKind> ParseMetricKind(std::string_view name) {
+  if (name == "nid") return MetricKind::kNid;
+  if (name == "mi") return MetricKind::kMi;
+  return std::nullopt;
+}
+
+bool HistogramOptions::IsValid(std::string* why) const {
+  auto fail = [why](const std::string& message) {
+    if (why != nullptr) *why = message;
+    return false;
+  };
+  if (reflectance_bins < 2 || reflectance_bins > kMaxBins) {
+    return fail("reflectance_bins must be in [2, " + std::to_string(kMaxBins) + "], got " +
+                std::to_string(reflectance_bins));
+  }
+  if (intensity_bins < 2 || intensity_bins > kMaxBins) {
+    return fail("intensity_bins must be in [2, " + std::to_string(kMaxBins) + "], got " +
+                std::to_string(intensity_bins));
+  }
+  if (binning != Binning::kHard && binning != Binning::kBSpline) return fail("binning is not a known value");
+  return true;
+}
+
+JointHistogram::JointHistogram(const HistogramOptions& options)
+    : options_(options),
+      nx_(std::clamp(options.reflectance_bins, 2, HistogramOptions::kMaxBins)),
+      ny_(std::clamp(options.intensity_bins, 2, HistogramOptions::kMaxBins)),
+      weights_(static_cast<std::size_t>(nx_) * static_cast<std::size_t>(ny_), 0.0) {
+  options_.reflectance_bins = nx_;
+  options_.intensity_bins = ny_;
+}
+
+void JointHistogram::Reset() {
+  std::fill(weights_.begin(), weights_.end(), 0.0);
+  samples_ = 0;
+}
+
+bool JointHistogram::Merge(const JointHistogram& other) {
+  if (other.nx_ != nx_ || other.ny_ != ny_ || other.options_.binning != options_.binning) return false;
+  std::transform(weights_.begin(), weights_.end(), other.weights_.begin(), weights_.begin(), std::plus<>());
+  samples_ += other.samples_;
+  return true;
+}
+
+double JointHistogram::TotalWeight() const { return std::accumulate(weights_.begin(), weights_.end(), 0.0); }
+
+namespace {
+
+// -sum p log p over weights / total, with 0 log 0 = 0.
+double Entropy(const double* weights, int count, double total) {
+  double entropy = 0.0;
+  for (int i = 0; i < count; ++i) {
+    if (weights[i] > 0.0) {
+      const double p = weights[i] / total;
+      entropy -= p * std::log(p);
+    }
+  }
+  return entropy;
+}
+
+// Marginals of a row-major nx x ny table into caller-provided arrays.
+void Marginals(const JointHistogram& histogram, double* marginal_x, double* marginal_y) {
+  const int nx = histogram.ReflectanceBins();
+  const int ny = histogram.IntensityBins();
+  const double* weights = histogram.Weights().data();
+  std::fill(marginal_y, marginal_y + ny, 0.0);
+  for (int i = 0; i < nx; ++i) {
+    const double* row = weights + static_cast<std::size_t>(i) * ny;
+    double row_sum = 0.0;
+    for (int j = 0; j < ny; ++j) {
+      row_sum += row[j];
+      marginal_y[j] += row[j];
+    }
+    marginal_x[i] = row_sum;
+  }
+}
+
+}  // namespace
+
+InformationMeasures ComputeInformation(const JointHistogram& histogram) {
+  InformationMeasures measures;
+  measures.samples = histogram.Samples();
+  const double total = histogram.TotalWeight();
+  if (measures.samples == 0 || !(total > 0.0)) {
+    measures.samples = 0;
+    return measures;  // the documented empty result: entropies 0, nid 1
+  }
+  std::array<double, HistogramOptions::kMaxBins> marginal_x, marginal_y;
+  Marginals(histogram, marginal_x.data(), marginal_y.data());
+  const int nx = histogram.ReflectanceBins();
+  const int ny = histogram.IntensityBins();
+  measures.entropy_x = Entropy(marginal_x.data(), nx, total);
+  measures.entropy_y = Entropy(marginal_y.data(), ny, total);
+  measures.joint_entropy = Entropy(histogram.Weights().data(), nx * ny, total);
+  measures.mutual_information = measures.entropy_x + measures.entropy_y - measures.joint_entropy;
+  if (measures.joint_entropy > 0.0) {
+    measures.nid = std::clamp((measures.joint_entropy - measures.mutual_information) / measures.joint_entropy,
+                              0.0, 1.0);
+  } else {
+    measures.nid = 0.0;  // both constant: identical variables
+  }
+  return measures;
+}
+
+double CostValue(const InformationMeasures& measures, MetricKind kind) {
+  return kind == MetricKind::kNid ? measures.nid : -measures.mutual_information;
+}
+
+void CostGradient::Compute(const JointHistogram& histogram, MetricKind kind) {
+  nx_ = histogram.ReflectanceBins();
+  ny_ = histogram.IntensityBins();
+  smooth_ = histogram.GetBinning() == Binning::kBSpline;
+  dcost_dweight_.assign(static_cast<std::size_t>(nx_) * static_cast<std::size_t>(ny_), 0.0);
+  const InformationMeasures m = ComputeInformation(histogram);
+  if (!smooth_ || m.samples == 0) return;
+  const double total = histogram.TotalWeight();
+  // Cost = a * (H(X) + H(Y)) + b * H(X,Y):
+  //   NID = 2 - (H(X) + H(Y)) / H(X,Y)  ->  a = -1 / H(X,Y), b = (H(X) + H(Y)) / H(X,Y)^2
+  //   -MI = H(X,Y) - H(X) - H(Y)        ->  a = -1,          b = 1
+  double a = -1.0, b = 1.0;
+  if (kind == MetricKind::kNid) {
+    if (!(m.joint_entropy > 0.0)) return;  // nid pinned at 0
+    a = -1.0 / m.joint_entropy;
+    b = (m.entropy_x + m.entropy_y) / (m.joint_entropy * m.joint_entropy);
+  }
+  std::array<double, HistogramOptions::kMaxBins> marginal_x, marginal_y;
+  Marginals(histogram, marginal_x.data(), marginal_y.data());
+  // dH/dh = -(log p + H) / N for each entropy; empty bins (p = 0) only ever
+  // meet zero weight derivatives, their limit contribution is 0.
+  auto d_entropy = [total](double weight, double entropy) {
+    return weight > 0.0 ? -(std::log(weight / total) + entropy) / total : 0.0;
+  };
+  std::array<double, HistogramOptions::kMaxBins> d_entropy_y;
+  for (int j = 0; j < ny_; ++j) d_entropy_y[j] = d_entropy(marginal_y[j], m.entropy_y);
+  const double* weights = histogram.Weights().data();
+  for (int i = 0; i < nx_; ++i) {
+    const double d_entropy_x = d_entropy(marginal_x[i], m.entropy_x);
+    for (int j = 0; j < ny_; ++j) {
+      const std::size_t index = static_cast<std::size_t>(i) * ny_ + j;
+      if (!(weights[index] > 0.0)) continue;
+      dcost_dweight_[index] = a * (d_entropy_x + d_entropy_y[j]) + b * d_entropy(weights[index], m.joint_entropy);
+    }
+  }
+}
+
+double CostGradient::SampleDerivative(float x01, float y01) const {
+  if (!smooth_ || dcost_dweight_.empty()) return 0.0;
+  BSplineWindow wx, wy;
+  ComputeBSplineWindow(x01, nx_, &wx);
+  ComputeBSplineWindow(y01, ny_, &wy, /*with_derivatives=*/true);
+  std::array<int, 4> columns;
+  for (int k = 0; k < 4; ++k) columns[k] = JointHistogram::ClampBin(wy.first + k, ny_);
+  double derivative = 0.0;
+  for (int a = 0; a < 4; ++a) {
+    const double* row =
+        dcost_dweight_.data() + static_cast<std::size_t>(JointHistogram::ClampBin(wx.first + a, nx_)) * ny_;
+    double row_sum = 0.0;
+    for (int b = 0; b < 4; ++b) row_sum += row[columns[b]] * wy.derivatives[b];
+    derivative += wx.weights[a] * row_sum;
+  }
+  return derivative;
+}
+
+CostAndGradient ComputeCostAndGradient(const HistogramOptions& options, MetricKind kind,
+                                       std::span<const float> x01, std::span<const float> y01,
+                                       std::span<const Vector6d> dy01_dtheta) {
+  CostAndGradient result;
+  const std::size_t count = std::min({x01.size(), y01.size(), dy01_dtheta.size()});
+  JointHistogram histogram(options);
+  for (std::size_t k = 0; k < count; ++k) histogram.Add(x01[k], y01[k]);
+  result.measures = ComputeInformation(histogram);
+  result.cost = CostValue(result.measures, kind);
+  CostGradient gradient;
+  gradient.Compute(histogram, kind);
+  for (std::size_t k = 0; k < count; ++k) {
+    result.gradient += gradient.SampleDerivative(x01[k], y01[k]) * dy01_dtheta[k];
+  }
+  return result;
+}
+
+}  // namespace scenecal

@@ -1,0 +1,78 @@
+// Static mapping of lidar reflectance and image intensity to [0, 1] before
+// binning (core/metric.hpp). Done once per scene, not per cost evaluation:
+// fit a ValueNormaliser on the scene's reflectances (all points of its
+// swathe), then map each point; normalise each image once.
+#pragma once
+
+#include <optional>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <opencv2/core/mat.hpp>
+
+namespace scenecal {
+
+// kNone:   values are taken as already in [0, 1] and only clamped.
+// kMinMax: robust linear stretch: the lower..upper percentile (default the
+//          1st..99th) maps to 0..1, values beyond are clamped (outliers such
+//          as retro-reflectors do not squash the rest).
+// kRank:   empirical CDF (histogram equalisation): a value maps to its
+//          mid-rank (count below + half the count equal) / count, so the
+//          fitted values become uniform on [0, 1]. Values not in the fitted
+//          set are interpolated linearly between neighbouring distinct values.
+enum class Normalisation { kNone, kMinMax, kRank };
+
+const char* NormalisationName(Normalisation normalisation);  // "none", "minmax", "rank"
+// Accepts "none", "minmax", "rank", and "equalise"/"equalize" for kRank.
+std::optional<Normalisation> ParseNormalisation(std::string_view name);
+
+struct NormalisationOptions {
+  Normalisation reflectance = Normalisation::kRank;  // lidar reflectance (any non-negative scale)
+  Normalisation intensity = Normalisation::kNone;    // image intensity (already [0, 1])
+  double lower_percentile = 1.0;                     // percent, kMinMax only
+  double upper_percentile = 99.0;                    // percent, kMinMax only
+
+  bool IsValid(std::string* why) const;
+};
+
+// A monotone (non-decreasing) map of one variable to [0, 1], fitted once.
+class ValueNormaliser {
+ public:
+  // The identity clamped to [0, 1] (kNone).
+  ValueNormaliser() = default;
+
+  // Fits to the finite entries of values (non-finite ones are skipped).
+  // Percentiles are in percent, used by kMinMax only, interpolated between
+  // order statistics. With no finite value, the result maps everything to 0.5.
+  static ValueNormaliser Fit(std::span<const float> values, Normalisation normalisation,
+                             double lower_percentile = 1.0, double upper_percentile = 99.0);
+
+  // The normalised value in [0, 1]; NaN maps to 0.
+  float operator()(float value) const;
+
+  // Maps values into out (sizes must match; extra entries are left alone).
+  void Apply(std::span<const float> values, std::span<float> out) const;
+
+  Normalisation Kind() const { return kind_; }
+  // kMinMax: the values mapped to 0 and 1.
+  float Lower() const { return lower_; }
+  float Upper() const { return upper_; }
+
+ private:
+  Normalisation kind_ = Normalisation::kNone;
+  bool empty_ = false;  // fitted on no finite value
+  float lower_ = 0.0f, upper_ = 1.0f;
+  std::vector<float> distinct_;  // kRank: sorted distinct fitted values
+  std::vector<float> cdf_;       // kRank: mid-rank CDF at each distinct value
+};
+
+// Returns the image (CV_32FC1, intensities in [0, 1], the GreyImage
+// invariant) normalised with `normalisation` over all its pixels, as CV_32FC1.
+// kNone returns a CV_32FC1 input itself (no copy). A CV_8UC1 input is read as
+// value / 255. Any other type (or an empty image) returns an empty Mat.
+cv::Mat NormaliseImage(const cv::Mat& intensity, Normalisation normalisation, double lower_percentile = 1.0,
+                       double upper_percentile = 99.0);
+
+}  // namespace scenecal
