@@ -6,7 +6,7 @@ set -euo pipefail
 packages=(
   build-essential cmake ccache pkg-config
   libeigen3-dev libceres-dev libopencv-dev libyaml-cpp-dev libcli11-dev
-  libspdlog-dev libfmt-dev libtbb-dev liblzf-dev
+  libspdlog-dev libfmt-dev libtbb-dev liblzf-dev zlib1g-dev
   libopenmpi-dev openmpi-bin
   libgtest-dev libgmock-dev libbenchmark-dev
 )

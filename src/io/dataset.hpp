@@ -6,11 +6,16 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/calibration_result.hpp"
 #include "core/rig.hpp"
 #include "io/error.hpp"
+
+namespace YAML {
+class Node;  // yaml-cpp; include <yaml-cpp/yaml.h> to build one
+}
 
 namespace scenecal::io {
 
@@ -36,6 +41,8 @@ Dataset OpenDataset(const std::filesystem::path& root);
 
 Rig ReadRig(const std::filesystem::path& path);
 void WriteRig(const std::filesystem::path& path, const Rig& rig);
+// As WriteRig, plus a top-level `extra:` mapping (free for users, ignored by ReadRig).
+void WriteRig(const std::filesystem::path& path, const Rig& rig, const YAML::Node& extra);
 Trajectory ReadTrajectory(const std::filesystem::path& path);
 void WriteTrajectory(const std::filesystem::path& path, const Trajectory& trajectory);
 GroundTruth ReadGroundTruth(const std::filesystem::path& path);
@@ -44,15 +51,35 @@ void WriteGroundTruth(const std::filesystem::path& path, const GroundTruth& trut
 // Decodes an image, checks its size against the camera, converts colour to
 // grey and scales to [0, 1] (8- and 16-bit).
 GreyImage ReadImage(const SensorFile& file, const CameraModel& camera);
-// Writes an 8-bit or 16-bit single-channel image as PNG (or JPEG by extension).
+// Writes an 8-bit or 16-bit image (grey, or BGR/BGRA) as PNG, or 8-bit as JPEG
+// (by extension). Scans and images are plain writes (no fsync: simulations write thousands).
 void WriteImage(const std::filesystem::path& path, const cv::Mat& grey);
 
+// (width, height) of a PNG or JPEG from its header only, without decoding
+// (`inspect --quick`); nullopt when the header cannot be read.
+std::optional<std::pair<int, int>> ImageFileSize(const std::filesystem::path& path);  // (width, height)
+
 LidarScan ReadScan(const SensorFile& file);
+// Records in a scan file (file size / 16) without reading it; InputError when
+// the size is not a multiple of 16.
+std::size_t ScanRecordCount(const SensorFile& file);
 void WriteScan(const std::filesystem::path& path, const std::vector<LidarPoint>& points);
 
 // Result file (FORMAT.md "Calibration result"), written atomically.
 void WriteCalibrationResult(const std::filesystem::path& path, const CalibrationResult& result);
+// As above, with more top-level keys appended after the standard ones (e.g. a
+// per-iteration `history`). extra_keys must be a mapping (or null) whose keys
+// do not repeat a standard key; std::invalid_argument otherwise.
+void WriteCalibrationResult(const std::filesystem::path& path, const CalibrationResult& result,
+                            const YAML::Node& extra_keys);
+// The YAML text WriteCalibrationResult writes (extra_keys may be null).
+std::string CalibrationResultToYaml(const CalibrationResult& result, const YAML::Node* extra_keys = nullptr);
 CalibrationResult ReadCalibrationResult(const std::filesystem::path& path);
+
+// Sensor names: [A-Za-z0-9_-]+.
+bool IsValidSensorName(const std::string& name);
+// A data file's stem as an int64 timestamp (digits with an optional leading '-').
+std::optional<TimeUs> ParseTimestamp(const std::string& text);
 
 // Writes rig.yaml, trajectory.csv and ground_truth.yaml (if given) and creates
 // cameras/<name>/ and lidars/<name>/ folders; the caller writes images and scans.

@@ -1,0 +1,333 @@
+// Round trips of every FORMAT.md file through the io writers and readers.
+#include <cmath>
+#include <limits>
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
+#include <yaml-cpp/yaml.h>
+
+#include "io/dataset.hpp"
+#include "io/inspect.hpp"
+#include "io_test_support.hpp"
+
+namespace scenecal {
+namespace {
+
+using namespace scenecal::testing;
+
+// Transforms are written as 6-tuples with 12 significant digits.
+constexpr double kTransformTolerance = 1e-11;
+
+double MatrixDistance(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
+  return (a.matrix() - b.matrix()).cwiseAbs().maxCoeff();
+}
+
+Rig ThreeModelRig() {
+  Rig rig;
+  rig.base_frame = "cam_front";
+  CameraInfo front;
+  front.name = "cam_front";
+  front.model = {1280, 960, CameraModelKind::kPinhole, 983.044, 983.044, 643.647, 493.379, {}};
+  CameraInfo side;
+  side.name = "cam-side";
+  side.model = {640, 480, CameraModelKind::kRadTan, 400.1, 401.2, 320.3, 240.4, {-0.1, 0.02, 0.001, -0.002, 0.003}};
+  side.T_base_camera = TransformFromTuple((Vector6d() << 0.24, -0.01, 0.02, 0.1, -0.2, 1.3).finished());
+  side.T_base_camera_sigma = (Vector6d() << 0.0005, 0.0005, 0.001, 0.001, 0.002, 0.0).finished();
+  CameraInfo fisheye;
+  fisheye.name = "Fish3";
+  fisheye.model = {800, 800, CameraModelKind::kEquidistant, 300, 300, 399.5, 399.5, {0.01, -0.003, 0.0004, -0.00005}};
+  fisheye.T_base_camera = TransformFromTuple((Vector6d() << -0.1, 0.2, 0.3, 3.1, 0.4, -2.9).finished());
+  rig.cameras = {front, side, fisheye};
+  LidarInfo rear;
+  rear.name = "rear";
+  rear.kind = LidarKind::k2d;
+  rear.T_base_lidar = TransformFromTuple((Vector6d() << -2.6, 0.3, 1.1, -2.84, -1.51, -0.36).finished());
+  LidarInfo top;
+  top.name = "top";
+  top.kind = LidarKind::k3d;
+  top.T_base_lidar = TransformFromTuple((Vector6d() << 0.1, 0.2, 1.9, 0.001, 0.002, 1.5707).finished());
+  rig.lidars = {rear, top};
+  return rig;
+}
+
+TEST(DatasetIo, RigRoundTripWithAllModelsAndSigma) {
+  const TempDir temp;
+  const Rig rig = ThreeModelRig();
+  io::WriteRig(temp.path() / "rig.yaml", rig);
+  const Rig read = io::ReadRig(temp.path() / "rig.yaml");
+  EXPECT_EQ(read.base_frame, rig.base_frame);
+  ASSERT_EQ(read.cameras.size(), rig.cameras.size());
+  for (std::size_t i = 0; i < rig.cameras.size(); ++i) {
+    const CameraInfo& a = rig.cameras[i];
+    const CameraInfo& b = read.cameras[i];
+    EXPECT_EQ(b.name, a.name);
+    EXPECT_EQ(b.model.kind, a.model.kind);
+    EXPECT_EQ(b.model.width, a.model.width);
+    EXPECT_EQ(b.model.height, a.model.height);
+    EXPECT_EQ(b.model.fx, a.model.fx);  // shortest round-trip digits: exact
+    EXPECT_EQ(b.model.fy, a.model.fy);
+    EXPECT_EQ(b.model.cx, a.model.cx);
+    EXPECT_EQ(b.model.cy, a.model.cy);
+    EXPECT_EQ(b.model.distortion, a.model.distortion);
+    EXPECT_LT(MatrixDistance(b.T_base_camera, a.T_base_camera), kTransformTolerance);
+    ASSERT_EQ(b.T_base_camera_sigma.has_value(), a.T_base_camera_sigma.has_value());
+    if (a.T_base_camera_sigma) {
+      EXPECT_EQ(*b.T_base_camera_sigma, *a.T_base_camera_sigma);
+    }
+  }
+  ASSERT_EQ(read.lidars.size(), rig.lidars.size());
+  for (std::size_t i = 0; i < rig.lidars.size(); ++i) {
+    EXPECT_EQ(read.lidars[i].name, rig.lidars[i].name);
+    EXPECT_EQ(read.lidars[i].kind, rig.lidars[i].kind);
+    EXPECT_LT(MatrixDistance(read.lidars[i].T_base_lidar, rig.lidars[i].T_base_lidar), kTransformTolerance);
+  }
+  // Writing what was read gives the same file: nothing is lost or re-rounded.
+  io::WriteRig(temp.path() / "rig2.yaml", read);
+  EXPECT_EQ(ReadFile(temp.path() / "rig2.yaml"), ReadFile(temp.path() / "rig.yaml"));
+}
+
+TEST(DatasetIo, RigAcceptsFourByFourTransformsAndExtra) {
+  const TempDir temp;
+  const Eigen::Isometry3d T_base_lidar =
+      TransformFromTuple((Vector6d() << -2.6, 0.3, 1.1, -2.84, -1.51, -0.36).finished());
+  std::string matrix = "[";
+  for (int row = 0; row < 4; ++row) {
+    matrix += row == 0 ? "[" : ", [";
+    for (int col = 0; col < 4; ++col) matrix += fmt::format("{}{}", col == 0 ? "" : ", ", T_base_lidar.matrix()(row, col));
+    matrix += "]";
+  }
+  matrix += "]";
+  std::string rig_text = kValidRig;
+  rig_text.replace(rig_text.find("[-2.6, 0.3, 1.1, -2.84, -1.51, -0.36]"), 37, matrix);
+  WriteFile(temp.path() / "rig.yaml", rig_text);
+  const Rig rig = io::ReadRig(temp.path() / "rig.yaml");
+  ASSERT_EQ(rig.lidars.size(), 1u);
+  EXPECT_LT(MatrixDistance(rig.lidars[0].T_base_lidar, T_base_lidar), 1e-15);
+  // The valid rig has an `extra:` mapping with nested content; WriteRig with extra keeps it readable.
+  YAML::Node extra;
+  extra["source"] = "test";
+  extra["list"].push_back(1.5);
+  io::WriteRig(temp.path() / "rig_extra.yaml", rig, extra);
+  EXPECT_NE(ReadFile(temp.path() / "rig_extra.yaml").find("source: test"), std::string::npos);
+  EXPECT_NO_THROW(io::ReadRig(temp.path() / "rig_extra.yaml"));
+}
+
+TEST(DatasetIo, TrajectoryRoundTripIsExact) {
+  const TempDir temp;
+  std::vector<TimeUs> times;
+  std::vector<Eigen::Isometry3d> poses;
+  for (int i = 0; i < 50; ++i) {
+    times.push_back(1418381798086398 + i * 12345);
+    poses.push_back(TransformFromTuple(
+        (Vector6d() << 0.1 * i + 1e-7, -0.03 * i, 1.0 / 3.0, 0.01 * i, -0.02 * i, 0.05 * i - 1.0).finished()));
+  }
+  const Trajectory trajectory(times, poses);
+  io::WriteTrajectory(temp.path() / "trajectory.csv", trajectory);
+  const Trajectory read = io::ReadTrajectory(temp.path() / "trajectory.csv");
+  ASSERT_EQ(read.size(), trajectory.size());
+  EXPECT_EQ(read.times_us(), trajectory.times_us());
+  for (std::size_t i = 0; i < read.size(); ++i) {
+    EXPECT_EQ(read.poses()[i].translation(), trajectory.poses()[i].translation());
+    EXPECT_LT(MatrixDistance(read.poses()[i], trajectory.poses()[i]), 1e-15);
+  }
+}
+
+TEST(DatasetIo, TrajectoryNormalisesSlightlyOffQuaternions) {
+  const TempDir temp;
+  WriteFile(temp.path() / "trajectory.csv", "timestamp_us,x,y,z,qx,qy,qz,qw\r\n5,1,2,3,0,0,0,1.0009\r\n");
+  const Trajectory read = io::ReadTrajectory(temp.path() / "trajectory.csv");
+  ASSERT_EQ(read.size(), 1u);
+  EXPECT_LT((read.poses()[0].rotation() - Eigen::Matrix3d::Identity()).norm(), 1e-12);
+  EXPECT_EQ(read.poses()[0].translation(), Eigen::Vector3d(1, 2, 3));
+}
+
+TEST(DatasetIo, GroundTruthRoundTrip) {
+  const TempDir temp;
+  GroundTruth truth;
+  truth.T_base_lidar["rear"] = TransformFromTuple((Vector6d() << -2.6, 0.3, 1.1, -2.84, -1.51, -0.36).finished());
+  truth.T_base_camera["right"] = TransformFromTuple((Vector6d() << 0.24, 0.001, 0, 0.002, 0, 0).finished());
+  io::WriteGroundTruth(temp.path() / "gt.yaml", truth);
+  const GroundTruth read = io::ReadGroundTruth(temp.path() / "gt.yaml");
+  ASSERT_EQ(read.T_base_lidar.size(), 1u);
+  ASSERT_EQ(read.T_base_camera.size(), 1u);
+  EXPECT_LT(MatrixDistance(read.T_base_lidar.at("rear"), truth.T_base_lidar.at("rear")), kTransformTolerance);
+  EXPECT_LT(MatrixDistance(read.T_base_camera.at("right"), truth.T_base_camera.at("right")), kTransformTolerance);
+}
+
+TEST(DatasetIo, ImagesRoundTripGreyColour8And16Bit) {
+  const TempDir temp;
+  CameraModel camera;
+  camera.width = 40;
+  camera.height = 30;
+  camera.fx = camera.fy = 50;
+  // 8-bit grey through WriteImage: exact values / 255.
+  const cv::Mat grey8 = TestPattern(40, 30, CV_8UC1);
+  io::WriteImage(temp.path() / "10.png", grey8);
+  const GreyImage a = io::ReadImage({10, temp.path() / "10.png"}, camera);
+  EXPECT_EQ(a.t_us, 10);
+  ASSERT_EQ(a.intensity.type(), CV_32F);
+  EXPECT_FLOAT_EQ(a.intensity.at<float>(7, 9), grey8.at<std::uint8_t>(7, 9) / 255.0f);
+  // 16-bit grey: / 65535.
+  const cv::Mat grey16 = TestPattern(40, 30, CV_16UC1);
+  io::WriteImage(temp.path() / "11.png", grey16);
+  const GreyImage b = io::ReadImage({11, temp.path() / "11.png"}, camera);
+  EXPECT_FLOAT_EQ(b.intensity.at<float>(20, 3), grey16.at<std::uint16_t>(20, 3) / 65535.0f);
+  double min = 0, max = 0;
+  cv::minMaxLoc(b.intensity, &min, &max);
+  EXPECT_GE(min, 0.0);
+  EXPECT_LE(max, 1.0);
+  // Colour (BGR) and BGRA: the grey conversion of OpenCV, scaled.
+  for (const int type : {CV_8UC3, CV_8UC4, CV_16UC3}) {
+    const cv::Mat colour = TestPattern(40, 30, type);
+    const fs::path path = temp.path() / "12.png";
+    ASSERT_TRUE(cv::imwrite(path.string(), colour));
+    cv::Mat expected;
+    cv::cvtColor(colour, expected, colour.channels() == 3 ? cv::COLOR_BGR2GRAY : cv::COLOR_BGRA2GRAY);
+    const double scale = colour.depth() == CV_16U ? 1.0 / 65535.0 : 1.0 / 255.0;
+    const GreyImage c = io::ReadImage({12, path}, camera);
+    const double expected_value = colour.depth() == CV_16U ? expected.at<std::uint16_t>(5, 6) * scale
+                                                           : expected.at<std::uint8_t>(5, 6) * scale;
+    EXPECT_NEAR(c.intensity.at<float>(5, 6), expected_value, 1e-6) << "type " << type;
+  }
+  // JPEG by extension (lossy: values close, size right).
+  const cv::Mat smooth(30, 40, CV_8UC1, cv::Scalar(100));
+  io::WriteImage(temp.path() / "13.jpg", smooth);
+  const GreyImage d = io::ReadImage({13, temp.path() / "13.jpg"}, camera);
+  EXPECT_NEAR(d.intensity.at<float>(15, 20), 100.0 / 255.0, 2.0 / 255.0);
+  EXPECT_EQ(io::ImageFileSize(temp.path() / "13.jpg"), std::make_pair(40, 30));
+  EXPECT_EQ(io::ImageFileSize(temp.path() / "11.png"), std::make_pair(40, 30));
+}
+
+TEST(DatasetIo, ScansRoundTripAndCountNoReturns) {
+  const TempDir temp;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const float inf = std::numeric_limits<float>::infinity();
+  const std::vector<LidarPoint> points = {
+      {1, 2, 3, 4}, {nan, 0, 0, 1}, {-1.5f, 2.25f, 0, 0}, {0, inf, 0, 1}, {0, 0, 0, nan}, {7, 8, 9, 10}};
+  io::WriteScan(temp.path() / "42.bin", points);
+  EXPECT_EQ(fs::file_size(temp.path() / "42.bin"), 16u * points.size());
+  const LidarScan scan = io::ReadScan({42, temp.path() / "42.bin"});
+  EXPECT_EQ(scan.t_us, 42);
+  EXPECT_EQ(scan.no_returns, 3u);
+  ASSERT_EQ(scan.points.size(), 3u);
+  EXPECT_EQ(scan.points[0].x, 1.0f);
+  EXPECT_EQ(scan.points[1].y, 2.25f);
+  EXPECT_EQ(scan.points[2].reflectance, 10.0f);
+  EXPECT_EQ(io::ScanRecordCount({42, temp.path() / "42.bin"}), points.size());
+  io::WriteScan(temp.path() / "43.bin", {});
+  EXPECT_TRUE(io::ReadScan({43, temp.path() / "43.bin"}).points.empty());
+}
+
+TEST(DatasetIo, CalibrationResultRoundTripWithExtraKeys) {
+  const TempDir temp;
+  CalibrationResult result;
+  LidarCalibration lidar;
+  lidar.lidar = "rear";
+  lidar.T_base_lidar = TransformFromTuple((Vector6d() << -2.6, 0.3, 1.1, -2.84, -1.51, -0.36).finished());
+  lidar.sigma = (Vector6d() << 0.01, 0.02, 0.03, 0.001, 0.002, 0.003).finished();
+  LidarCalibration other;
+  other.lidar = "top";
+  result.lidars = {lidar, other};
+  PairCalibration pair;
+  pair.camera = "left";
+  pair.lidar = "rear";
+  pair.T_camera_lidar = TransformFromTuple((Vector6d() << 1, 2, 3, 0.1, 0.2, 0.3).finished());
+  pair.cost = 0.912345678901234;
+  result.pairs = {pair};
+  result.termination = "converged: change below 1e-4: after 7 iterations";
+  result.settings = {{"metric", "nid"}, {"scheme", "alt"}, {"bins", "32"}, {"flag", "true"}};
+  result.timings_s = {{"total", 12.5}, {"lower", 1.0 / 3.0}};
+  result.warnings = {"rotation about x: weakly constrained", "no: colon: issues"};
+  YAML::Node extra;
+  YAML::Node iteration;
+  iteration["iteration"] = 1;
+  iteration["cost"] = 0.95;
+  extra["history"].push_back(iteration);
+  const fs::path path = temp.path() / "calibration.yaml";
+  io::WriteCalibrationResult(path, result, extra);
+  const std::string text = ReadFile(path);
+  EXPECT_EQ(text.rfind("format: scenecal-calibration/1", 0), 0u) << text;
+  EXPECT_NE(text.find("history:"), std::string::npos);
+  const CalibrationResult read = io::ReadCalibrationResult(path);
+  ASSERT_EQ(read.lidars.size(), 2u);
+  EXPECT_EQ(read.lidars[0].lidar, "rear");
+  EXPECT_LT(MatrixDistance(read.lidars[0].T_base_lidar, lidar.T_base_lidar), kTransformTolerance);
+  ASSERT_TRUE(read.lidars[0].sigma.has_value());
+  EXPECT_EQ(*read.lidars[0].sigma, *lidar.sigma);
+  EXPECT_FALSE(read.lidars[1].sigma.has_value());
+  ASSERT_EQ(read.pairs.size(), 1u);
+  EXPECT_EQ(read.pairs[0].camera, "left");
+  EXPECT_EQ(read.pairs[0].lidar, "rear");
+  EXPECT_EQ(read.pairs[0].cost, pair.cost);
+  EXPECT_LT(MatrixDistance(read.pairs[0].T_camera_lidar, pair.T_camera_lidar), kTransformTolerance);
+  EXPECT_EQ(read.termination, result.termination);
+  EXPECT_EQ(read.settings, result.settings);
+  EXPECT_EQ(read.timings_s, result.timings_s);
+  EXPECT_EQ(read.warnings, result.warnings);
+  // A standard key cannot be overridden through the extra keys.
+  YAML::Node clash;
+  clash["pairs"] = 1;
+  EXPECT_THROW(io::WriteCalibrationResult(path, result, clash), std::invalid_argument);
+  EXPECT_EQ(ReadFile(path), text);  // the earlier file is untouched
+}
+
+TEST(DatasetIo, DatasetSkeletonAndOpen) {
+  const TempDir temp;
+  const fs::path root = temp.path() / "sim";
+  const Rig rig = ThreeModelRig();
+  const Trajectory trajectory({100, 200, 300}, {Eigen::Isometry3d::Identity(), Eigen::Isometry3d::Identity(),
+                                                Eigen::Isometry3d(Eigen::Translation3d(1, 0, 0))});
+  GroundTruth truth;
+  truth.T_base_lidar["top"] = rig.lidars[1].T_base_lidar;
+  io::WriteDatasetSkeleton(root, rig, trajectory, truth);
+  io::WriteImage(root / "cameras" / "cam_front" / "200.png", cv::Mat(960, 1280, CV_8UC1, cv::Scalar(3)));
+  io::WriteImage(root / "cameras" / "cam_front" / "100.png", cv::Mat(960, 1280, CV_8UC1, cv::Scalar(3)));
+  io::WriteScan(root / "lidars" / "top" / "250.bin", TestPoints(4, 0));
+  const io::Dataset dataset = io::OpenDataset(root);
+  ASSERT_EQ(dataset.images.at("cam_front").size(), 2u);
+  EXPECT_EQ(dataset.images.at("cam_front")[0].t_us, 100);  // sorted by time
+  EXPECT_EQ(dataset.images.at("cam_front")[1].t_us, 200);
+  EXPECT_TRUE(dataset.images.at("cam-side").empty());
+  EXPECT_EQ(dataset.scans.at("top").size(), 1u);
+  EXPECT_TRUE(dataset.scans.at("rear").empty());
+  ASSERT_TRUE(dataset.ground_truth.has_value());
+  EXPECT_EQ(dataset.ground_truth->T_base_lidar.count("top"), 1u);
+}
+
+TEST(DatasetIo, SummaryOfTheSmallDataset) {
+  const TempDir temp;
+  const fs::path root = temp.path() / "dataset";
+  WriteValidDataset(root);
+  const io::Dataset dataset = io::OpenDataset(root);
+  std::size_t progress_calls = 0;
+  const io::DatasetSummary summary =
+      io::SummariseDataset(dataset, {}, [&](std::size_t done, std::size_t total) {
+        ++progress_calls;
+        EXPECT_LE(done, total);
+      });
+  EXPECT_EQ(progress_calls, 6u);  // 3 images + 3 scans
+  ASSERT_EQ(summary.cameras.size(), 2u);
+  EXPECT_EQ(summary.cameras[0].images, 2u);
+  EXPECT_NEAR(summary.cameras[0].rate_hz, 1.0 / 0.2, 1e-9);
+  EXPECT_EQ(summary.cameras[0].with_scans_nearby, 2u);
+  ASSERT_EQ(summary.lidars.size(), 1u);
+  EXPECT_EQ(summary.lidars[0].points_min, 10u);
+  EXPECT_EQ(summary.lidars[0].points_median, 12u);
+  EXPECT_EQ(summary.lidars[0].points_max, 14u);
+  EXPECT_NEAR(summary.distance_m, 0.5, 1e-12);
+  EXPECT_NEAR(summary.mean_speed_m_s, 1.0, 1e-9);
+  EXPECT_TRUE(summary.ground_truth);
+  EXPECT_TRUE(summary.can_calibrate);
+  const std::string text = io::FormatDatasetSummary(dataset, summary);
+  EXPECT_NE(text.find("verdict: can be calibrated"), std::string::npos) << text;
+  // Quick mode reads sizes only and reaches the same verdict.
+  io::SummaryOptions quick;
+  quick.read_contents = false;
+  const io::DatasetSummary quick_summary = io::SummariseDataset(dataset, quick);
+  EXPECT_TRUE(quick_summary.can_calibrate);
+  EXPECT_EQ(quick_summary.lidars[0].points_max, 14u);
+}
+
+}  // namespace
+}  // namespace scenecal
