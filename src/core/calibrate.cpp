@@ -1,0 +1,434 @@
+#include "core/calibrate.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <memory>
+#include <sstream>
+
+#include <tbb/global_control.h>
+#include <tbb/parallel_for.h>
+
+namespace scenecal {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double SecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+std::string FormatNumber(double value) {
+  std::ostringstream out;
+  out.precision(6);
+  out << value;
+  return out.str();
+}
+
+std::string FormatVector(const Eigen::Vector3d& v) {
+  return "[" + FormatNumber(v.x()) + ", " + FormatNumber(v.y()) + ", " + FormatNumber(v.z()) + "]";
+}
+
+}  // namespace
+
+bool ParseCalibrationScheme(const std::string& name, CalibrationScheme* scheme) {
+  if (name == "once") *scheme = CalibrationScheme::kOnce;
+  else if (name == "joint") *scheme = CalibrationScheme::kJoint;
+  else if (name == "alt") *scheme = CalibrationScheme::kAlt;
+  else return false;
+  return true;
+}
+
+const char* CalibrationSchemeName(CalibrationScheme scheme) {
+  switch (scheme) {
+    case CalibrationScheme::kOnce: return "once";
+    case CalibrationScheme::kJoint: return "joint";
+    case CalibrationScheme::kAlt: return "alt";
+  }
+  return "unknown";
+}
+
+bool CalibrationOptions::IsValid(std::string* why) const {
+  const auto fail = [why](const std::string& message) {
+    if (why != nullptr) *why = message;
+    return false;
+  };
+  if (!cost.IsValid(why)) return false;
+  if (!normalisation.IsValid(why)) return false;
+  if (!scenes.IsValid(why)) return false;
+  if (!nelder_mead.IsValid(why)) return false;
+  if (stages.empty()) return fail("stages needs at least one stage");
+  for (const OptimisationStage& stage : stages) {
+    if (!(stage.step_scale > 0.0) || !std::isfinite(stage.step_scale))
+      return fail("stage step scales must be positive numbers");
+    if (!(stage.blur_fraction >= 0.0) || !(stage.blur_fraction < 0.5))
+      return fail("stage blur fractions must be in [0, 0.5)");
+    if (stage.restarts < 0) return fail("stage restarts must be >= 0");
+  }
+  if (!(restart_min_improvement >= 0.0)) return fail("restart_min_improvement must be >= 0");
+  if (threads < 0) return fail("threads must be 0 (all) or positive");
+  if (!(time_budget_s >= 0.0) || !std::isfinite(time_budget_s)) return fail("time_budget_s must be >= 0 seconds");
+  if (!(agreement_warning_translation_m > 0.0) || !(agreement_warning_rotation_deg > 0.0))
+    return fail("agreement warning thresholds must be positive");
+  return true;
+}
+
+Eigen::Isometry3d MeanTransform(const std::vector<Eigen::Isometry3d>& transforms) {
+  if (transforms.empty()) return Eigen::Isometry3d::Identity();
+  Eigen::Vector3d translation = Eigen::Vector3d::Zero();
+  Eigen::Vector3d rotation_offset = Eigen::Vector3d::Zero();
+  const Eigen::Matrix3d reference = transforms.front().linear();
+  for (const Eigen::Isometry3d& t : transforms) {
+    translation += t.translation();
+    rotation_offset += LogSO3(t.linear() * reference.transpose());
+  }
+  const double n = static_cast<double>(transforms.size());
+  Eigen::Isometry3d mean = Eigen::Isometry3d::Identity();
+  mean.linear() = ExpSO3(rotation_offset / n) * reference;
+  mean.translation() = translation / n;
+  return mean;
+}
+
+PairCost BuildPairCost(const CalibrationInput& input, const CameraInfo& camera, const std::string& lidar,
+                       const CalibrationOptions& options) {
+  std::vector<const Scene*> scenes;
+  for (const Scene& scene : input.selection.scenes) {
+    if (scene.camera == camera.name && scene.lidar == lidar) scenes.push_back(&scene);
+  }
+  const auto images_it = input.images.find(camera.name);
+  const auto scans_it = input.scans.find(lidar);
+  std::vector<SceneSwathe> swathes(scenes.size());
+  std::vector<char> complete(scenes.size(), 0);
+  tbb::parallel_for(std::size_t{0}, scenes.size(), [&](std::size_t s) {
+    const Scene& scene = *scenes[s];
+    if (images_it == input.images.end() || scans_it == input.scans.end()) return;
+    const auto image = images_it->second.find(scene.image_t_us);
+    if (image == images_it->second.end()) return;
+    std::vector<const LidarScan*> scans;
+    for (const SwatheScan& swathe_scan : scene.scans) {
+      const auto scan = scans_it->second.find(swathe_scan.t_us);
+      if (scan == scans_it->second.end()) return;
+      scans.push_back(&scan->second);
+    }
+    swathes[s] = SceneSwathe::Build(scene, camera, image->second.intensity, scans, options.cost.swathe,
+                                    options.normalisation);
+    complete[s] = 1;
+  });
+  std::vector<SceneSwathe> kept;
+  for (std::size_t s = 0; s < swathes.size(); ++s) {
+    if (complete[s]) kept.push_back(std::move(swathes[s]));
+  }
+  return PairCost(camera, lidar, std::move(kept), options.cost);
+}
+
+std::vector<OptimisationStage> DefaultStages() { return {{1.0, 0.004, 2}, {0.3, 0.0015, 1}, {0.1, 0.0, 1}}; }
+
+std::vector<NelderMeadSummary> MinimiseCoarseToFine(
+    const std::function<double(const Eigen::Isometry3d&)>& cost,
+    const std::function<void(const OptimisationStage& stage, const Eigen::Isometry3d&)>& prepare,
+    const NelderMeadOptions& options, const std::vector<OptimisationStage>& stages, double restart_min_improvement,
+    Eigen::Isometry3d* transform, const StopRequested& stop_requested) {
+  std::vector<NelderMeadSummary> runs;
+  for (const OptimisationStage& stage : stages) {
+    if (stop_requested && stop_requested()) break;
+    if (prepare) prepare(stage, *transform);
+    NelderMeadOptions stage_options = options;
+    stage_options.initial_step_translation_m *= stage.step_scale;
+    stage_options.initial_step_rotation_rad *= stage.step_scale;
+    for (int run = 0; run <= stage.restarts; ++run) {
+      runs.push_back(MinimiseOverTransform(cost, stage_options, transform, stop_requested));
+      const NelderMeadSummary& last = runs.back();
+      if (last.termination == NelderMeadTermination::kStopRequested ||
+          last.termination == NelderMeadTermination::kNonFiniteCost) {
+        return runs;
+      }
+      if (!(last.initial_value - last.final_value > restart_min_improvement)) break;
+    }
+  }
+  return runs;
+}
+
+void PreparePairForStage(PairCost& pair, const OptimisationStage& stage, const Eigen::Isometry3d& T_camera_lidar) {
+  pair.SetImageBlur(stage.blur_fraction);
+  pair.RefreshVisibility(T_camera_lidar);
+}
+
+namespace {
+
+struct LidarProblem {
+  const LidarInfo* lidar = nullptr;
+  std::vector<std::unique_ptr<PairCost>> pairs;  // one per camera, rig order
+};
+
+std::string DescribeUnusable(const std::string& lidar, const std::vector<std::unique_ptr<PairCost>>& pairs,
+                             int min_points) {
+  std::ostringstream out;
+  out << "lidar " << lidar << ": no scene with enough information (at least " << min_points
+      << " projected points, a non-constant image and non-constant reflectance) at the initial guess;";
+  for (const auto& pair : pairs) {
+    out << " " << pair->Camera().name << ": " << pair->SceneCount() << " scenes, "
+        << pair->CountState(SceneState::kTooFewPoints) << " too few points, "
+        << pair->CountState(SceneState::kConstantImage) << " constant image, "
+        << pair->CountState(SceneState::kConstantReflectance) << " constant reflectance;";
+  }
+  return out.str();
+}
+
+PairReport MakePairReport(const PairCost& pair, const Eigen::Isometry3d& T_initial, double initial_cost) {
+  PairReport report;
+  report.camera = pair.Camera().name;
+  report.lidar = pair.Lidar();
+  report.scenes = pair.SceneCount();
+  report.scenes_used = pair.UsedSceneCount();
+  report.scenes_too_few_points = pair.CountState(SceneState::kTooFewPoints);
+  report.scenes_constant_image = pair.CountState(SceneState::kConstantImage);
+  report.scenes_constant_reflectance = pair.CountState(SceneState::kConstantReflectance);
+  report.projected_points = pair.ProjectedAtRefresh();
+  report.initial_cost = initial_cost;
+  report.T_camera_lidar_initial = T_initial;
+  return report;
+}
+
+std::string StagesBrief(const std::vector<NelderMeadSummary>& stages) {
+  int evaluations = 0, iterations = 0;
+  for (const auto& s : stages) {
+    evaluations += s.evaluations;
+    iterations += s.iterations;
+  }
+  std::ostringstream out;
+  out << stages.size() << " runs, " << iterations << " iterations, " << evaluations << " evaluations";
+  if (!stages.empty()) out << ", last: " << NelderMeadTerminationName(stages.back().termination);
+  return out.str();
+}
+
+}  // namespace
+
+CalibrationOutcome Calibrate(const CalibrationInput& input, const CalibrationOptions& options,
+                             const ProgressCallback& progress) {
+  const auto start = Clock::now();
+  CalibrationOutcome outcome;
+  const auto say = [&](const std::string& message) {
+    if (progress) progress(message);
+  };
+  const auto cannot = [&](CalibrationStatus status, std::string why) {
+    outcome.status = status;
+    outcome.why = std::move(why);
+    return outcome;
+  };
+  std::string why;
+  if (!options.IsValid(&why)) return cannot(CalibrationStatus::kInvalidOptions, "invalid options: " + why);
+  if (options.scheme == CalibrationScheme::kAlt) {
+    return cannot(CalibrationStatus::kInvalidOptions, "scheme alt is not available in this build");
+  }
+  if (input.rig.cameras.empty() || input.rig.lidars.empty()) {
+    return cannot(CalibrationStatus::kCannotCalibrate, "the rig needs at least one camera and one lidar");
+  }
+  std::optional<tbb::global_control> thread_limit;
+  if (options.threads > 0) {
+    thread_limit.emplace(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(options.threads));
+  }
+  const Clock::time_point deadline =
+      start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(options.time_budget_s));
+  const StopRequested stop_requested = [&] { return options.time_budget_s > 0.0 && Clock::now() > deadline; };
+
+  // Settings, for the record.
+  CalibrationResult& result = outcome.result;
+  result.settings["scheme"] = CalibrationSchemeName(options.scheme);
+  result.settings["metric"] = MetricKindName(options.cost.metric);
+  result.settings["bins"] = std::to_string(options.cost.histogram.reflectance_bins) + "x" +
+                            std::to_string(options.cost.histogram.intensity_bins);
+  result.settings["binning"] = BinningName(options.cost.histogram.binning);
+  result.settings["normalise_reflectance"] = NormalisationName(options.normalisation.reflectance);
+  result.settings["normalise_intensity"] = NormalisationName(options.normalisation.intensity);
+  result.settings["scenes_per_camera"] = std::to_string(options.scenes.scenes_per_camera);
+  result.settings["swathe_length_m"] = FormatNumber(options.scenes.swathe_length_m);
+  result.settings["direction"] = SwatheDirectionName(options.scenes.direction);
+  result.settings["min_points_per_scene"] = std::to_string(options.cost.min_points_per_scene);
+  result.settings["rotation_pivot"] = options.pivot_at_observed_centroid ? "observed centroid" : "lidar origin";
+  result.settings["occlusion"] = options.cost.swathe.occlusion ? "zbuffer" : "off";
+  result.settings["max_iterations_per_run"] = std::to_string(options.nelder_mead.max_iterations);
+  std::string stages;
+  for (const OptimisationStage& s : options.stages) {
+    stages += (stages.empty() ? "" : "; ") + std::string("step x") + FormatNumber(s.step_scale) + " blur " +
+              FormatNumber(s.blur_fraction) + " restarts " + std::to_string(s.restarts);
+  }
+  result.settings["stages"] = stages;
+  result.settings["initial_step_m"] = FormatNumber(options.nelder_mead.initial_step_translation_m);
+  result.settings["initial_step_rad"] = FormatNumber(options.nelder_mead.initial_step_rotation_rad);
+  result.settings["threads"] = std::to_string(options.threads);
+  result.settings["seed"] = std::to_string(options.seed);
+  result.settings["time_budget_s"] = FormatNumber(options.time_budget_s);
+
+  // Build every pair's cost and check that each lidar has usable scenes.
+  std::vector<LidarProblem> problems;
+  for (const LidarInfo& lidar : input.rig.lidars) {
+    LidarProblem problem;
+    problem.lidar = &lidar;
+    int scenes = 0;
+    for (const CameraInfo& camera : input.rig.cameras) {
+      problem.pairs.push_back(std::make_unique<PairCost>(BuildPairCost(input, camera, lidar.name, options)));
+      scenes += problem.pairs.back()->SceneCount();
+    }
+    if (scenes == 0) {
+      return cannot(CalibrationStatus::kCannotCalibrate,
+                    "lidar " + lidar.name +
+                        ": no scene: no camera frame has scans of this lidar within its swathe window, or the "
+                        "images, scans and trajectory do not overlap in time");
+    }
+    int used = 0;
+    for (auto& pair : problem.pairs) {
+      used += pair->RefreshVisibility(pair->Camera().T_base_camera.inverse() * lidar.T_base_lidar);
+    }
+    if (used == 0) {
+      return cannot(CalibrationStatus::kCannotCalibrate,
+                    DescribeUnusable(lidar.name, problem.pairs, options.cost.min_points_per_scene));
+    }
+    problems.push_back(std::move(problem));
+  }
+  result.timings_s["build_swathes"] = SecondsSince(start);
+  say("built " + std::to_string(problems.size()) + " lidar problem(s) in " +
+      FormatNumber(result.timings_s["build_swathes"]) + " s");
+
+  const auto optimise_start = Clock::now();
+  std::vector<std::string> terminations;
+  for (LidarProblem& problem : problems) {
+    const LidarInfo& lidar = *problem.lidar;
+    // Initial costs (visibility at the initial guess).
+    std::vector<double> initial_costs;
+    for (const auto& pair : problem.pairs) {
+      initial_costs.push_back(pair->Evaluate(pair->Camera().T_base_camera.inverse() * lidar.T_base_lidar));
+    }
+    std::vector<Eigen::Isometry3d> T_camera_lidar(problem.pairs.size());
+    std::vector<bool> solved(problem.pairs.size(), false);
+    if (options.scheme == CalibrationScheme::kJoint) {
+      std::vector<const PairCost*> pairs;
+      for (const auto& pair : problem.pairs) pairs.push_back(pair.get());
+      Eigen::Isometry3d T_base_lidar = lidar.T_base_lidar;
+      const auto problem_start = Clock::now();
+      OptimisationReport report;
+      report.problem = "joint " + lidar.name;
+      NelderMeadOptions nelder_mead = options.nelder_mead;
+      if (options.pivot_at_observed_centroid) {
+        Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+        std::size_t count = 0;
+        for (const auto& pair : problem.pairs) {
+          std::size_t n = 0;
+          sum += pair->SumProjectedLidarPoints(pair->Camera().T_base_camera.inverse() * T_base_lidar, &n);
+          count += n;
+        }
+        if (count > 0) nelder_mead.pivot_source = sum / static_cast<double>(count);
+      }
+      say(report.problem + ": start, cost " + FormatNumber(EvaluateJoint(pairs, T_base_lidar)) +
+          ", rotation pivot (lidar frame, m) " + FormatVector(nelder_mead.pivot_source));
+      report.stages = MinimiseCoarseToFine(
+          [&](const Eigen::Isometry3d& T) { return EvaluateJoint(pairs, T); },
+          [&](const OptimisationStage& stage, const Eigen::Isometry3d& T) {
+            for (auto& pair : problem.pairs) PreparePairForStage(*pair, stage, pair->Camera().T_base_camera.inverse() * T);
+          },
+          nelder_mead, options.stages, options.restart_min_improvement, &T_base_lidar, stop_requested);
+      for (const auto& stage : report.stages) report.evaluations += stage.evaluations;
+      report.seconds = SecondsSince(problem_start);
+      say(report.problem + ": " + StagesBrief(report.stages) + ", cost " +
+          (report.stages.empty() ? std::string("-") : FormatNumber(report.stages.back().final_value)) + ", " +
+          FormatNumber(report.seconds) + " s");
+      terminations.push_back(report.problem + ": " + StagesBrief(report.stages));
+      outcome.optimisations.push_back(report);
+      for (std::size_t p = 0; p < problem.pairs.size(); ++p) {
+        T_camera_lidar[p] = problem.pairs[p]->Camera().T_base_camera.inverse() * T_base_lidar;
+        solved[p] = true;
+      }
+    } else {
+      for (std::size_t p = 0; p < problem.pairs.size(); ++p) {
+        PairCost& pair = *problem.pairs[p];
+        T_camera_lidar[p] = pair.Camera().T_base_camera.inverse() * lidar.T_base_lidar;
+        if (pair.UsedSceneCount() == 0) {
+          result.warnings.push_back("pair " + pair.Camera().name + "/" + lidar.name +
+                                    ": no usable scene at the initial guess; pair left out");
+          continue;
+        }
+        const auto problem_start = Clock::now();
+        OptimisationReport report;
+        report.problem = "once " + pair.Camera().name + "/" + lidar.name;
+        NelderMeadOptions nelder_mead = options.nelder_mead;
+        if (options.pivot_at_observed_centroid) {
+          std::size_t count = 0;
+          const Eigen::Vector3d sum = pair.SumProjectedLidarPoints(T_camera_lidar[p], &count);
+          if (count > 0) nelder_mead.pivot_source = sum / static_cast<double>(count);
+        }
+        say(report.problem + ": start, cost " + FormatNumber(initial_costs[p]) + ", rotation pivot (lidar frame, m) " +
+            FormatVector(nelder_mead.pivot_source));
+        report.stages = MinimiseCoarseToFine([&](const Eigen::Isometry3d& T) { return pair.Evaluate(T); },
+                                             [&](const OptimisationStage& stage, const Eigen::Isometry3d& T) {
+                                               PreparePairForStage(pair, stage, T);
+                                             },
+                                             nelder_mead, options.stages, options.restart_min_improvement,
+                                             &T_camera_lidar[p], stop_requested);
+        for (const auto& stage : report.stages) report.evaluations += stage.evaluations;
+        report.seconds = SecondsSince(problem_start);
+        say(report.problem + ": " + StagesBrief(report.stages) + ", cost " +
+            (report.stages.empty() ? std::string("-") : FormatNumber(report.stages.back().final_value)) + ", " +
+            FormatNumber(report.seconds) + " s");
+        terminations.push_back(report.problem + ": " + StagesBrief(report.stages));
+        outcome.optimisations.push_back(report);
+        solved[p] = true;
+      }
+    }
+
+    // Final costs with visibility refreshed at the answer; per-pair results.
+    std::vector<Eigen::Isometry3d> implied_base_lidar;
+    for (std::size_t p = 0; p < problem.pairs.size(); ++p) {
+      PairCost& pair = *problem.pairs[p];
+      const Eigen::Isometry3d T_initial = pair.Camera().T_base_camera.inverse() * lidar.T_base_lidar;
+      if (!solved[p]) {
+        outcome.pairs.push_back(MakePairReport(pair, T_initial, initial_costs[p]));
+        continue;
+      }
+      pair.SetImageBlur(0.0);
+      pair.RefreshVisibility(T_camera_lidar[p]);
+      PairReport report = MakePairReport(pair, T_initial, initial_costs[p]);
+      report.final_cost = pair.Evaluate(T_camera_lidar[p]);
+      outcome.pairs.push_back(report);
+      result.pairs.push_back({pair.Camera().name, lidar.name, T_camera_lidar[p], report.final_cost});
+      implied_base_lidar.push_back(pair.Camera().T_base_camera * T_camera_lidar[p]);
+    }
+    if (implied_base_lidar.empty()) {
+      return cannot(CalibrationStatus::kCannotCalibrate,
+                    DescribeUnusable(lidar.name, problem.pairs, options.cost.min_points_per_scene));
+    }
+    LidarCalibration lidar_result;
+    lidar_result.lidar = lidar.name;
+    lidar_result.T_base_lidar = MeanTransform(implied_base_lidar);
+    result.lidars.push_back(lidar_result);
+
+    if (options.scheme == CalibrationScheme::kOnce && implied_base_lidar.size() > 1) {
+      // Agreement of the pairs: the largest pairwise difference of their implied T_base_lidar.
+      double spread_m = 0.0, spread_deg = 0.0;
+      for (std::size_t a = 0; a < implied_base_lidar.size(); ++a) {
+        for (std::size_t b = a + 1; b < implied_base_lidar.size(); ++b) {
+          spread_m = std::max(spread_m, TranslationError(implied_base_lidar[a], implied_base_lidar[b]));
+          spread_deg = std::max(spread_deg, RotationErrorDegrees(implied_base_lidar[a], implied_base_lidar[b]));
+        }
+      }
+      result.settings["once_agreement_" + lidar.name + "_translation_m"] = FormatNumber(spread_m);
+      result.settings["once_agreement_" + lidar.name + "_rotation_deg"] = FormatNumber(spread_deg);
+      say("once " + lidar.name + ": pairs' T_base_lidar agree within " + FormatNumber(spread_m) + " m, " +
+          FormatNumber(spread_deg) + " deg");
+      if (spread_m > options.agreement_warning_translation_m || spread_deg > options.agreement_warning_rotation_deg) {
+        result.warnings.push_back("lidar " + lidar.name + ": the pairs' T_base_lidar disagree by " +
+                                  FormatNumber(spread_m) + " m and " + FormatNumber(spread_deg) +
+                                  " deg; T_base_lidar is their mean");
+      }
+    }
+  }
+  result.timings_s["optimise"] = SecondsSince(optimise_start);
+  result.timings_s["total"] = SecondsSince(start);
+  std::string termination = CalibrationSchemeName(options.scheme) + std::string(" ") +
+                            MetricKindName(options.cost.metric) + ": ";
+  for (std::size_t i = 0; i < terminations.size(); ++i) termination += (i ? "; " : "") + terminations[i];
+  if (stop_requested()) termination += " (time budget reached)";
+  result.termination = termination;
+  return outcome;
+}
+
+}  // namespace scenecal

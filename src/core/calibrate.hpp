@@ -1,0 +1,150 @@
+// Calibration schemes over the pair costs (core/pair_cost.hpp):
+//   once  - each (camera, lidar) pair alone: T_camera_lidar by Nelder-Mead on
+//           its own cost; each pair implies T_base_lidar = T_base_camera *
+//           T_camera_lidar, and their spread is reported.
+//   joint - one problem per lidar over T_base_lidar: the mean of the pair costs
+//           over all cameras, through the fixed known T_base_camera.
+//   alt   - the paper's alternating scheme (core/alternating.*; dispatched here
+//           when available).
+// Each optimisation runs a coarse-to-fine schedule: Nelder-Mead restarted
+// from the best point with smaller initial steps, the visibility masks
+// refreshed before every stage (never inside one).
+//
+// Core rules: no files, no printing; progress goes to a callback and data
+// that cannot be calibrated is a status with the reason, not an exception.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "core/calibration_result.hpp"
+#include "core/metric.hpp"
+#include "core/nelder_mead.hpp"
+#include "core/normalisation.hpp"
+#include "core/pair_cost.hpp"
+#include "core/rig.hpp"
+#include "core/scenes.hpp"
+
+namespace scenecal {
+
+enum class CalibrationScheme { kOnce, kJoint, kAlt };
+bool ParseCalibrationScheme(const std::string& name, CalibrationScheme* scheme);  // "once" | "joint" | "alt"
+const char* CalibrationSchemeName(CalibrationScheme scheme);
+
+// One stage of the coarse-to-fine schedule. Before the stage the images are
+// blurred and the visibility masks refreshed at the current estimate; then
+// Nelder-Mead runs with the initial steps scaled by step_scale, and is rerun
+// from its answer (up to `restarts` times) while a run still improves the
+// cost by more than restart_min_improvement: a fresh simplex escapes the
+// premature collapse Nelder-Mead suffers in 6-D on a rough cost.
+struct OptimisationStage {
+  double step_scale = 1.0;
+  double blur_fraction = 0.0;  // Gaussian 1-sigma as a fraction of the image width; 0 = sharp
+  int restarts = 0;
+};
+std::vector<OptimisationStage> DefaultStages();
+
+struct CalibrationOptions {
+  CalibrationScheme scheme = CalibrationScheme::kJoint;
+  PairCostOptions cost;                // metric, histogram bins and binning, range/occlusion, min points
+  NormalisationOptions normalisation;  // reflectance and intensity mapping to [0, 1]
+  SceneOptions scenes;                 // used by the caller's SelectScenes; recorded in the settings
+  NelderMeadOptions nelder_mead;       // steps of the first stage, iterations per stage, tolerances
+  // Coarse-to-fine schedule (one entry with scale 1, no blur and no restarts
+  // = a single Nelder-Mead run, the paper).
+  std::vector<OptimisationStage> stages = DefaultStages();
+  int threads = 0;           // worker threads for TBB; 0 = all hardware threads
+  std::uint64_t seed = 1;    // recorded; the pipeline is deterministic (no random choices)
+  double time_budget_s = 0;  // wall-clock budget of Calibrate (from its start); 0 = none. Best point so far kept.
+  // once: warn when the pairs' implied T_base_lidar disagree by more than this.
+  double agreement_warning_translation_m = 0.02;
+  double agreement_warning_rotation_deg = 0.3;
+  double restart_min_improvement = 1e-5;  // cost units
+  // Rotate the lidar about the centroid (lidar frame) of its points that project
+  // at the initial guess, instead of about the lidar's origin: a push-broom
+  // swathe's weak direction (a tilt about the lateral axis through the road
+  // the scans hit) then lies along one parameter, which Nelder-Mead follows
+  // better than a diagonal valley. Off by default: on the simulated RobotCar
+  // data it did not improve the accuracy (4 perturbed starts, mixed results).
+  bool pivot_at_observed_centroid = false;
+
+  bool IsValid(std::string* why = nullptr) const;
+};
+
+// The data a calibration needs: the rig, the selected scenes, and the images
+// and scans those scenes use (others may be absent).
+struct CalibrationInput {
+  Rig rig;
+  SceneSelection selection;
+  std::map<std::string, std::map<TimeUs, GreyImage>> images;  // by camera, then image time
+  std::map<std::string, std::map<TimeUs, LidarScan>> scans;   // by lidar, then scan time
+};
+
+// Per-pair diagnostics, for logs and reports.
+struct PairReport {
+  std::string camera;
+  std::string lidar;
+  int scenes = 0;
+  int scenes_used = 0;  // at the final refresh
+  int scenes_too_few_points = 0;
+  int scenes_constant_image = 0;
+  int scenes_constant_reflectance = 0;
+  std::vector<std::size_t> projected_points;  // per scene, at the final estimate
+  double initial_cost = 0.0;                  // at the initial guess (visibility at the initial guess)
+  double final_cost = 0.0;                    // at the answer (visibility refreshed there)
+  Eigen::Isometry3d T_camera_lidar_initial = Eigen::Isometry3d::Identity();
+};
+
+struct OptimisationReport {
+  std::string problem;  // e.g. "joint rear" or "once left/rear"
+  std::vector<NelderMeadSummary> stages;
+  int evaluations = 0;
+  double seconds = 0.0;
+};
+
+enum class CalibrationStatus { kSuccess, kCannotCalibrate, kInvalidOptions };
+
+struct CalibrationOutcome {
+  CalibrationStatus status = CalibrationStatus::kSuccess;
+  std::string why;  // for a status other than kSuccess
+  CalibrationResult result;
+  std::vector<PairReport> pairs;
+  std::vector<OptimisationReport> optimisations;
+};
+
+// Progress messages (one line each) for the caller to log.
+using ProgressCallback = std::function<void(const std::string& message)>;
+
+// Builds one pair's cost from the input's scenes of (camera, lidar).
+// Scenes whose image or scans are missing from the input are left out.
+PairCost BuildPairCost(const CalibrationInput& input, const CameraInfo& camera, const std::string& lidar,
+                       const CalibrationOptions& options);
+
+// The coarse-to-fine schedule on any cost of a transform: for each stage,
+// prepare(stage, T) (blur the images, refresh visibility), then Nelder-Mead
+// runs (MinimiseOverTransform) with the stage's steps, with restarts.
+// *transform is updated to the best point. Returns one summary per
+// Nelder-Mead run. Stops early when stop_requested returns true.
+std::vector<NelderMeadSummary> MinimiseCoarseToFine(
+    const std::function<double(const Eigen::Isometry3d&)>& cost,
+    const std::function<void(const OptimisationStage& stage, const Eigen::Isometry3d&)>& prepare,
+    const NelderMeadOptions& options, const std::vector<OptimisationStage>& stages, double restart_min_improvement,
+    Eigen::Isometry3d* transform, const StopRequested& stop_requested = {});
+
+// Prepares a pair for a stage: blur and visibility at T_camera_lidar.
+void PreparePairForStage(PairCost& pair, const OptimisationStage& stage, const Eigen::Isometry3d& T_camera_lidar);
+
+CalibrationOutcome Calibrate(const CalibrationInput& input, const CalibrationOptions& options,
+                             const ProgressCallback& progress = {});
+
+// Mean of rigid transforms: translations averaged, rotations averaged in the
+// tangent space at the first (exact for identical inputs).
+Eigen::Isometry3d MeanTransform(const std::vector<Eigen::Isometry3d>& transforms);
+
+}  // namespace scenecal

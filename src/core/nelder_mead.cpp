@@ -1,0 +1,199 @@
+#include "core/nelder_mead.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <vector>
+
+#include <sstream>
+
+#include "core/geometry.hpp"
+
+namespace scenecal {
+
+bool NelderMeadOptions::IsValid(std::string* why) const {
+  const auto fail = [why](const std::string& message) {
+    if (why != nullptr) *why = message;
+    return false;
+  };
+  if (!(initial_step_translation_m > 0.0) || !std::isfinite(initial_step_translation_m))
+    return fail("initial_step_translation_m must be a positive number of metres");
+  if (!(initial_step_rotation_rad > 0.0) || !std::isfinite(initial_step_rotation_rad))
+    return fail("initial_step_rotation_rad must be a positive number of radians");
+  if (max_iterations < 1) return fail("max_iterations must be at least 1");
+  if (max_evaluations < 0) return fail("max_evaluations must be 0 (no cap) or positive");
+  if (!(function_tolerance >= 0.0)) return fail("function_tolerance must be >= 0");
+  if (!(simplex_tolerance_translation_m >= 0.0) || !(simplex_tolerance_rotation_rad >= 0.0))
+    return fail("simplex tolerances must be >= 0");
+  return true;
+}
+
+const char* NelderMeadTerminationName(NelderMeadTermination termination) {
+  switch (termination) {
+    case NelderMeadTermination::kFunctionTolerance: return "function tolerance reached";
+    case NelderMeadTermination::kSimplexTolerance: return "simplex tolerance reached";
+    case NelderMeadTermination::kMaxIterations: return "max iterations";
+    case NelderMeadTermination::kMaxEvaluations: return "max evaluations";
+    case NelderMeadTermination::kStopRequested: return "stop requested";
+    case NelderMeadTermination::kNonFiniteCost: return "non-finite cost at the start point";
+  }
+  return "unknown";
+}
+
+std::string NelderMeadSummary::BriefReport() const {
+  std::ostringstream out;
+  out.precision(6);
+  out << "iterations " << iterations << ", evaluations " << evaluations << ", cost " << initial_value << " -> "
+      << final_value << ", " << NelderMeadTerminationName(termination);
+  return out.str();
+}
+
+NelderMeadSummary MinimiseNelderMead(const std::function<double(const Eigen::VectorXd&)>& cost,
+                                     const Eigen::VectorXd& steps, const Eigen::VectorXd& tolerances,
+                                     const NelderMeadOptions& options, Eigen::VectorXd* x,
+                                     const StopRequested& stop_requested) {
+  const Eigen::Index n = x->size();
+  NelderMeadSummary summary;
+  const auto evaluate = [&](const Eigen::VectorXd& point) {
+    ++summary.evaluations;
+    const double value = cost(point);
+    return std::isfinite(value) ? value : std::numeric_limits<double>::infinity();
+  };
+
+  std::vector<Eigen::VectorXd> vertices(static_cast<std::size_t>(n + 1), *x);
+  std::vector<double> values(static_cast<std::size_t>(n + 1));
+  values[0] = evaluate(*x);
+  summary.initial_value = values[0];
+  summary.final_value = values[0];
+  if (!std::isfinite(values[0])) {
+    summary.termination = NelderMeadTermination::kNonFiniteCost;
+    return summary;
+  }
+  for (Eigen::Index i = 0; i < n; ++i) {
+    auto& vertex = vertices[static_cast<std::size_t>(i + 1)];
+    vertex[i] += steps[i];
+    values[static_cast<std::size_t>(i + 1)] = evaluate(vertex);
+  }
+
+  std::vector<std::size_t> order(vertices.size());
+  const auto sort_vertices = [&] {
+    std::iota(order.begin(), order.end(), 0);
+    std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return values[a] < values[b]; });
+    std::vector<Eigen::VectorXd> sorted_vertices(vertices.size());
+    std::vector<double> sorted_values(values.size());
+    for (std::size_t i = 0; i < order.size(); ++i) {
+      sorted_vertices[i] = vertices[order[i]];
+      sorted_values[i] = values[order[i]];
+    }
+    vertices.swap(sorted_vertices);
+    values.swap(sorted_values);
+  };
+  const auto evaluations_exhausted = [&] {
+    return options.max_evaluations > 0 && summary.evaluations >= options.max_evaluations;
+  };
+
+  sort_vertices();
+  summary.termination = NelderMeadTermination::kMaxIterations;
+  const std::size_t worst = static_cast<std::size_t>(n);
+  while (true) {
+    // Convergence tests on the sorted simplex (vertex 0 is the best).
+    if (values[worst] - values[0] <= options.function_tolerance) {
+      summary.termination = NelderMeadTermination::kFunctionTolerance;
+      break;
+    }
+    bool simplex_small = true;
+    for (std::size_t v = 1; v <= worst && simplex_small; ++v) {
+      simplex_small = ((vertices[v] - vertices[0]).cwiseAbs().array() <= tolerances.array()).all();
+    }
+    if (simplex_small) {
+      summary.termination = NelderMeadTermination::kSimplexTolerance;
+      break;
+    }
+    if (summary.iterations >= options.max_iterations) {
+      summary.termination = NelderMeadTermination::kMaxIterations;
+      break;
+    }
+    if (evaluations_exhausted()) {
+      summary.termination = NelderMeadTermination::kMaxEvaluations;
+      break;
+    }
+    if (stop_requested && stop_requested()) {
+      summary.termination = NelderMeadTermination::kStopRequested;
+      break;
+    }
+    ++summary.iterations;
+
+    Eigen::VectorXd centroid = Eigen::VectorXd::Zero(n);
+    for (std::size_t v = 0; v < worst; ++v) centroid += vertices[v];
+    centroid /= static_cast<double>(n);
+
+    const Eigen::VectorXd reflected = centroid + (centroid - vertices[worst]);
+    const double reflected_value = evaluate(reflected);
+    if (reflected_value < values[0]) {
+      const Eigen::VectorXd expanded = centroid + 2.0 * (centroid - vertices[worst]);
+      const double expanded_value = evaluate(expanded);
+      if (expanded_value < reflected_value) {
+        vertices[worst] = expanded;
+        values[worst] = expanded_value;
+      } else {
+        vertices[worst] = reflected;
+        values[worst] = reflected_value;
+      }
+    } else if (reflected_value < values[worst - 1]) {
+      vertices[worst] = reflected;
+      values[worst] = reflected_value;
+    } else {
+      // Contract towards the better of the worst vertex and its reflection.
+      const bool outside = reflected_value < values[worst];
+      const Eigen::VectorXd contracted = outside ? Eigen::VectorXd(centroid + 0.5 * (reflected - centroid))
+                                                 : Eigen::VectorXd(centroid + 0.5 * (vertices[worst] - centroid));
+      const double contracted_value = evaluate(contracted);
+      if (contracted_value < (outside ? reflected_value : values[worst])) {
+        vertices[worst] = contracted;
+        values[worst] = contracted_value;
+      } else {
+        // Shrink every vertex towards the best one.
+        for (std::size_t v = 1; v <= worst; ++v) {
+          vertices[v] = vertices[0] + 0.5 * (vertices[v] - vertices[0]);
+          values[v] = evaluate(vertices[v]);
+        }
+      }
+    }
+    sort_vertices();
+  }
+
+  *x = vertices[0];
+  summary.final_value = values[0];
+  return summary;
+}
+
+Eigen::Isometry3d ApplyTransformUpdate(const Eigen::Isometry3d& T_0, const Eigen::Matrix<double, 6, 1>& delta,
+                                       TransformUpdate update, const Eigen::Vector3d& pivot_source) {
+  if (update == TransformUpdate::kLeftTwist) return ExpSE3(delta) * T_0;
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = ExpSO3(delta.tail<3>()) * T_0.linear();
+  // T * q = T_0 * q + rho.
+  T.translation() = T_0.translation() + delta.head<3>() + T_0.linear() * pivot_source - T.linear() * pivot_source;
+  return T;
+}
+
+NelderMeadSummary MinimiseOverTransform(const std::function<double(const Eigen::Isometry3d&)>& cost,
+                                        const NelderMeadOptions& options, Eigen::Isometry3d* transform,
+                                        const StopRequested& stop_requested) {
+  const Eigen::Isometry3d start = *transform;
+  Eigen::VectorXd steps(6), tolerances(6);
+  steps << Eigen::Vector3d::Constant(options.initial_step_translation_m),
+      Eigen::Vector3d::Constant(options.initial_step_rotation_rad);
+  tolerances << Eigen::Vector3d::Constant(options.simplex_tolerance_translation_m),
+      Eigen::Vector3d::Constant(options.simplex_tolerance_rotation_rad);
+  Eigen::VectorXd delta = Eigen::VectorXd::Zero(6);
+  const auto local_cost = [&](const Eigen::VectorXd& d) {
+    return cost(ApplyTransformUpdate(start, Vector6d(d), options.transform_update, options.pivot_source));
+  };
+  const NelderMeadSummary summary = MinimiseNelderMead(local_cost, steps, tolerances, options, &delta, stop_requested);
+  *transform = ApplyTransformUpdate(start, Vector6d(delta), options.transform_update, options.pivot_source);
+  return summary;
+}
+
+}  // namespace scenecal

@@ -1,0 +1,142 @@
+#include "core/pair_cost.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
+
+namespace scenecal {
+
+bool PairCostOptions::IsValid(std::string* why) const {
+  if (!histogram.IsValid(why)) return false;
+  if (!swathe.IsValid(why)) return false;
+  if (min_points_per_scene < 1) {
+    if (why != nullptr) *why = "min_points_per_scene must be at least 1";
+    return false;
+  }
+  return true;
+}
+
+const char* SceneStateName(SceneState state) {
+  switch (state) {
+    case SceneState::kUsed: return "used";
+    case SceneState::kTooFewPoints: return "too few projected points";
+    case SceneState::kConstantImage: return "constant image";
+    case SceneState::kConstantReflectance: return "constant reflectance";
+  }
+  return "unknown";
+}
+
+PairCost::PairCost(CameraInfo camera, std::string lidar, std::vector<SceneSwathe> scenes, PairCostOptions options)
+    : camera_(std::move(camera)), lidar_(std::move(lidar)), scenes_(std::move(scenes)), options_(options) {
+  states_.assign(scenes_.size(), SceneState::kUsed);
+  projected_at_refresh_.assign(scenes_.size(), 0);
+  // Until the first refresh: every informative scene with enough points at all.
+  for (std::size_t s = 0; s < scenes_.size(); ++s) {
+    if (scenes_[s].ImageIsConstant()) states_[s] = SceneState::kConstantImage;
+    else if (scenes_[s].ReflectanceIsConstant()) states_[s] = SceneState::kConstantReflectance;
+    else if (scenes_[s].PointCount() < static_cast<std::size_t>(options_.min_points_per_scene))
+      states_[s] = SceneState::kTooFewPoints;
+    if (states_[s] == SceneState::kUsed) used_.push_back(s);
+  }
+}
+
+void PairCost::SetImageBlur(double fraction_of_width) {
+  tbb::parallel_for(std::size_t{0}, scenes_.size(), [&](std::size_t s) {
+    scenes_[s].SetImageBlur(fraction_of_width * static_cast<double>(scenes_[s].Image().cols));
+  });
+}
+
+Eigen::Vector3d PairCost::SumProjectedLidarPoints(const Eigen::Isometry3d& T_camera_lidar, std::size_t* count) const {
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  std::size_t total = 0;
+  for (const std::size_t s : used_) {
+    std::size_t n = 0;
+    sum += scenes_[s].SumProjectedLidarPoints(T_camera_lidar, &n);
+    total += n;
+  }
+  if (count != nullptr) *count = total;
+  return sum;
+}
+
+int PairCost::UsedSceneCount() const { return static_cast<int>(used_.size()); }
+
+int PairCost::CountState(SceneState state) const {
+  return static_cast<int>(std::count(states_.begin(), states_.end(), state));
+}
+
+int PairCost::RefreshVisibility(const Eigen::Isometry3d& T_camera_lidar) {
+  tbb::parallel_for(std::size_t{0}, scenes_.size(), [&](std::size_t s) {
+    scenes_[s].RefreshVisibility(T_camera_lidar, options_.swathe);
+    projected_at_refresh_[s] = scenes_[s].CountProjected(T_camera_lidar);
+  });
+  used_.clear();
+  for (std::size_t s = 0; s < scenes_.size(); ++s) {
+    if (scenes_[s].ImageIsConstant()) states_[s] = SceneState::kConstantImage;
+    else if (scenes_[s].ReflectanceIsConstant()) states_[s] = SceneState::kConstantReflectance;
+    else if (projected_at_refresh_[s] < static_cast<std::size_t>(options_.min_points_per_scene))
+      states_[s] = SceneState::kTooFewPoints;
+    else states_[s] = SceneState::kUsed;
+    if (states_[s] == SceneState::kUsed) used_.push_back(s);
+  }
+  return static_cast<int>(used_.size());
+}
+
+double PairCost::SceneCost(std::size_t scene, const Eigen::Isometry3d& T_camera_lidar, std::size_t* projected) const {
+  const SceneSwathe& swathe = scenes_[scene];
+  JointHistogram histogram(options_.histogram);
+  if (options_.histogram.binning == Binning::kHard) {
+    swathe.ForEachProjected(T_camera_lidar, true, [&](std::size_t, float x01, float u, float v, float) {
+      histogram.AddHard(x01, swathe.Sample(u, v));
+    });
+  } else {
+    swathe.ForEachProjected(T_camera_lidar, true, [&](std::size_t, float x01, float u, float v, float) {
+      histogram.AddBSpline(x01, swathe.Sample(u, v));
+    });
+  }
+  if (projected != nullptr) *projected = histogram.Samples();
+  return CostValue(ComputeInformation(histogram), options_.metric);
+}
+
+double PairCost::Evaluate(const Eigen::Isometry3d& T_camera_lidar) const {
+  if (used_.empty()) return std::numeric_limits<double>::quiet_NaN();
+  const double sum = tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, used_.size(), 1), 0.0,
+      [&](const tbb::blocked_range<std::size_t>& range, double partial) {
+        for (std::size_t i = range.begin(); i != range.end(); ++i) partial += SceneCost(used_[i], T_camera_lidar, nullptr);
+        return partial;
+      },
+      std::plus<>());
+  return sum / static_cast<double>(used_.size());
+}
+
+std::vector<SceneEvaluation> PairCost::EvaluateScenes(const Eigen::Isometry3d& T_camera_lidar) const {
+  std::vector<SceneEvaluation> evaluations(scenes_.size());
+  tbb::parallel_for(std::size_t{0}, scenes_.size(), [&](std::size_t s) {
+    evaluations[s].image_t_us = scenes_[s].ImageTime();
+    evaluations[s].state = states_[s];
+    evaluations[s].cost = SceneCost(s, T_camera_lidar, &evaluations[s].projected_points);
+  });
+  return evaluations;
+}
+
+double EvaluateJoint(const std::vector<const PairCost*>& pairs, const Eigen::Isometry3d& T_base_lidar) {
+  std::vector<double> costs(pairs.size(), std::numeric_limits<double>::quiet_NaN());
+  tbb::parallel_for(std::size_t{0}, pairs.size(), [&](std::size_t p) {
+    if (pairs[p]->UsedSceneCount() == 0) return;
+    costs[p] = pairs[p]->Evaluate(pairs[p]->Camera().T_base_camera.inverse() * T_base_lidar);
+  });
+  double sum = 0.0;
+  int counted = 0;
+  for (const double c : costs) {
+    if (std::isnan(c)) continue;
+    sum += c;
+    ++counted;
+  }
+  return counted == 0 ? std::numeric_limits<double>::quiet_NaN() : sum / counted;
+}
+
+}  // namespace scenecal

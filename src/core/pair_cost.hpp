@@ -1,0 +1,103 @@
+// The cost of one (camera, lidar) pair, the paper's eq. 9:
+//   f_p(T_camera_lidar) = (1 / S_p) * sum over scenes s of Cost(X_s, Y_s; T),
+// where Cost is NID or -MI (core/metric.hpp CostValue) of the joint histogram
+// of normalised lidar reflectance X and image intensity Y at the pixels the
+// scene's swathe points project to.
+//
+// Usage (this is what the `once`, `joint` and `alt` schemes build on):
+//   PairCost cost(camera, "rear", std::move(swathes), options);
+//   cost.RefreshVisibility(T0);            // occlusion + which scenes count
+//   double f = cost.Evaluate(T);           // thread-safe, const, TBB over scenes
+//   ... optimiser run (e.g. MinimiseOverTransform) ...
+//   cost.RefreshVisibility(T_best);        // between runs only, never inside
+// Scenes with fewer than min_points_per_scene projected (visible) points at
+// the last refresh, or with a constant image or constant reflectance, are
+// ignored (and counted) until the next refresh, so the set of scenes, and
+// with it the cost, does not jump during an optimiser run.
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "core/metric.hpp"
+#include "core/rig.hpp"
+#include "core/swathe.hpp"
+
+namespace scenecal {
+
+struct PairCostOptions {
+  HistogramOptions histogram;
+  MetricKind metric = MetricKind::kNid;
+  SwatheOptions swathe;
+  // A scene needs at least this many projected, visible points to count.
+  int min_points_per_scene = 300;
+
+  bool IsValid(std::string* why = nullptr) const;
+};
+
+// Why a scene is left out of the cost (kUsed when it is not).
+enum class SceneState { kUsed, kTooFewPoints, kConstantImage, kConstantReflectance };
+const char* SceneStateName(SceneState state);
+
+struct SceneEvaluation {
+  TimeUs image_t_us = 0;
+  std::size_t projected_points = 0;  // visible points projecting into the image
+  double cost = 0.0;                 // CostValue of this scene alone
+  SceneState state = SceneState::kUsed;
+};
+
+class PairCost {
+ public:
+  PairCost(CameraInfo camera, std::string lidar, std::vector<SceneSwathe> scenes, PairCostOptions options);
+
+  const CameraInfo& Camera() const { return camera_; }
+  const std::string& Lidar() const { return lidar_; }
+  const PairCostOptions& Options() const { return options_; }
+  const std::vector<SceneSwathe>& Scenes() const { return scenes_; }
+
+  // Mean cost over the used scenes; NaN when no scene is used. Thread-safe.
+  double Evaluate(const Eigen::Isometry3d& T_camera_lidar) const;
+  // Per-scene detail at T_camera_lidar (every scene; state from the last refresh).
+  std::vector<SceneEvaluation> EvaluateScenes(const Eigen::Isometry3d& T_camera_lidar) const;
+
+  // Recomputes each scene's visibility mask at T_camera_lidar and which scenes
+  // are used. Returns the number of used scenes. Not thread-safe (mutates).
+  int RefreshVisibility(const Eigen::Isometry3d& T_camera_lidar);
+
+  // Blurs every scene's image with a Gaussian of 1-sigma = fraction * image
+  // width (pixels); 0 restores the sharp images. Between optimiser runs only.
+  void SetImageBlur(double fraction_of_width);
+
+  // Sum of the lidar-frame coordinates (metres) of the visible points that
+  // project under T_camera_lidar, over the used scenes; *count gets their number.
+  Eigen::Vector3d SumProjectedLidarPoints(const Eigen::Isometry3d& T_camera_lidar, std::size_t* count) const;
+
+  int UsedSceneCount() const;
+  int SceneCount() const { return static_cast<int>(scenes_.size()); }
+  int CountState(SceneState state) const;
+  const std::vector<SceneState>& States() const { return states_; }
+  // Projected, visible points per scene at the last refresh.
+  const std::vector<std::size_t>& ProjectedAtRefresh() const { return projected_at_refresh_; }
+
+ private:
+  double SceneCost(std::size_t scene, const Eigen::Isometry3d& T_camera_lidar, std::size_t* projected) const;
+
+  CameraInfo camera_;
+  std::string lidar_;
+  std::vector<SceneSwathe> scenes_;
+  PairCostOptions options_;
+  std::vector<SceneState> states_;
+  std::vector<std::size_t> projected_at_refresh_;
+  std::vector<std::size_t> used_;  // indices of used scenes
+};
+
+// The `joint` cost of one lidar: the mean over cameras of each pair's cost at
+// T_camera_lidar = T_base_camera^-1 * T_base_lidar (the known camera
+// transforms held fixed). Pairs with no used scene are skipped; NaN when none
+// has one. Thread-safe.
+double EvaluateJoint(const std::vector<const PairCost*>& pairs, const Eigen::Isometry3d& T_base_lidar);
+
+}  // namespace scenecal

@@ -1,0 +1,230 @@
+#include "core/scenes.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+namespace scenecal {
+
+bool ParseSwatheDirection(const std::string& name, SwatheDirection* direction) {
+  if (name == "forward") *direction = SwatheDirection::kForward;
+  else if (name == "backward") *direction = SwatheDirection::kBackward;
+  else if (name == "both") *direction = SwatheDirection::kBoth;
+  else return false;
+  return true;
+}
+
+const char* SwatheDirectionName(SwatheDirection direction) {
+  switch (direction) {
+    case SwatheDirection::kForward: return "forward";
+    case SwatheDirection::kBackward: return "backward";
+    case SwatheDirection::kBoth: return "both";
+  }
+  return "unknown";
+}
+
+bool SceneOptions::IsValid(std::string* why) const {
+  const auto fail = [why](const std::string& message) {
+    if (why != nullptr) *why = message;
+    return false;
+  };
+  if (scenes_per_camera < 1) return fail("scenes_per_camera must be at least 1");
+  if (!(swathe_length_m > 0.0) || !std::isfinite(swathe_length_m))
+    return fail("swathe_length_m must be a positive number of metres");
+  if (!(min_speed_mps >= 0.0) || !std::isfinite(min_speed_mps)) return fail("min_speed_mps must be >= 0 (m/s)");
+  if (!(speed_window_s > 0.0) || !std::isfinite(speed_window_s)) return fail("speed_window_s must be > 0 (s)");
+  if (max_scans_per_scene < 0) return fail("max_scans_per_scene must be 0 (no cap) or positive");
+  return true;
+}
+
+std::string SceneSelection::Report() const {
+  std::ostringstream out;
+  out << "scene selection" << (static_dataset ? " (static dataset: scans at the image time)" : "") << ":";
+  for (const CameraSelectionReport& c : cameras) {
+    out << "\n  camera " << c.camera << ": " << c.images << " images, " << c.selected << " selected of "
+        << c.eligible << " eligible; skipped " << c.skipped_no_pose << " without pose, " << c.skipped_standing_still
+        << " standing still, " << c.skipped_window_outside << " with the swathe window off the trajectory";
+  }
+  for (const LidarSelectionReport& p : pairs) {
+    out << "\n  " << p.camera << " / " << p.lidar << ": " << p.scenes << " scenes, " << p.scans_used
+        << " scans; " << p.frames_without_scans << " frames without scans";
+    if (p.scans_without_pose > 0) out << ", " << p.scans_without_pose << " scans without pose";
+  }
+  return out.str();
+}
+
+namespace {
+
+constexpr double kMicrosecondsPerSecond = 1e6;
+
+// Mean speed (m/s) over [t - window, t + window] clipped to the trajectory.
+double SpeedAt(const Trajectory& trajectory, TimeUs t, double window_s) {
+  const auto window_us = static_cast<TimeUs>(window_s * kMicrosecondsPerSecond);
+  const TimeUs t0 = std::max(trajectory.times_us().front(), t - window_us);
+  const TimeUs t1 = std::min(trajectory.times_us().back(), t + window_us);
+  if (t1 <= t0) return 0.0;
+  return (trajectory.DistanceAt(t1) - trajectory.DistanceAt(t0)) / (static_cast<double>(t1 - t0) / kMicrosecondsPerSecond);
+}
+
+// Indices of `count` items spread evenly over [0, n).
+std::vector<std::size_t> ThinEvenly(std::size_t n, std::size_t count) {
+  std::vector<std::size_t> kept;
+  for (std::size_t i = 0; i < count; ++i) {
+    kept.push_back(static_cast<std::size_t>((static_cast<double>(i) + 0.5) * static_cast<double>(n) /
+                                            static_cast<double>(count)));
+  }
+  return kept;
+}
+
+// Picks up to `count` of the frames (given by distance travelled, ascending)
+// spread evenly by distance: for each target distance the nearest unused frame.
+std::vector<std::size_t> SpreadByDistance(const std::vector<double>& distances_m, std::size_t count) {
+  const std::size_t n = distances_m.size();
+  std::vector<std::size_t> chosen;
+  if (n <= count) {
+    for (std::size_t i = 0; i < n; ++i) chosen.push_back(i);
+    return chosen;
+  }
+  std::vector<bool> used(n, false);
+  const double first = distances_m.front();
+  const double span = distances_m.back() - first;
+  for (std::size_t i = 0; i < count; ++i) {
+    const double target = count == 1 ? first + 0.5 * span
+                                     : first + span * static_cast<double>(i) / static_cast<double>(count - 1);
+    std::size_t best = n;
+    double best_gap = 0.0;
+    for (std::size_t f = 0; f < n; ++f) {
+      if (used[f]) continue;
+      const double gap = std::abs(distances_m[f] - target);
+      if (best == n || gap < best_gap) {
+        best = f;
+        best_gap = gap;
+      }
+    }
+    used[best] = true;
+    chosen.push_back(best);
+  }
+  std::sort(chosen.begin(), chosen.end());
+  return chosen;
+}
+
+}  // namespace
+
+SceneSelection SelectScenes(const Rig& rig, const Trajectory& trajectory,
+                            const std::map<std::string, std::vector<TimeUs>>& image_times_us,
+                            const std::map<std::string, std::vector<TimeUs>>& scan_times_us,
+                            const SceneOptions& options) {
+  SceneSelection selection;
+  if (trajectory.empty()) return selection;
+  selection.static_dataset = trajectory.size() == 1;
+  const double total_m = trajectory.TotalDistance();
+  const double length_m = options.swathe_length_m;
+  const double before_m = options.direction == SwatheDirection::kForward ? 0.0 : length_m;
+  const double after_m = options.direction == SwatheDirection::kBackward ? 0.0 : length_m;
+
+  for (const CameraInfo& camera : rig.cameras) {
+    CameraSelectionReport camera_report;
+    camera_report.camera = camera.name;
+    const auto images_it = image_times_us.find(camera.name);
+    std::vector<TimeUs> eligible_times;
+    std::vector<double> eligible_distances;
+    if (images_it != image_times_us.end()) {
+      for (const TimeUs t : images_it->second) {
+        ++camera_report.images;
+        if (!trajectory.PoseAt(t)) {
+          ++camera_report.skipped_no_pose;
+          continue;
+        }
+        const double d = trajectory.DistanceAt(t);
+        if (!selection.static_dataset) {
+          if (SpeedAt(trajectory, t, options.speed_window_s) < options.min_speed_mps) {
+            ++camera_report.skipped_standing_still;
+            continue;
+          }
+          if (d - before_m < 0.0 || d + after_m > total_m) {
+            ++camera_report.skipped_window_outside;
+            continue;
+          }
+        }
+        eligible_times.push_back(t);
+        eligible_distances.push_back(d);
+      }
+    }
+    camera_report.eligible = static_cast<int>(eligible_times.size());
+    const std::vector<std::size_t> chosen =
+        SpreadByDistance(eligible_distances, static_cast<std::size_t>(options.scenes_per_camera));
+    camera_report.selected = static_cast<int>(chosen.size());
+    selection.cameras.push_back(camera_report);
+
+    for (const LidarInfo& lidar : rig.lidars) {
+      LidarSelectionReport pair_report;
+      pair_report.camera = camera.name;
+      pair_report.lidar = lidar.name;
+      const auto scans_it = scan_times_us.find(lidar.name);
+      static const std::vector<TimeUs> kNoScans;
+      const std::vector<TimeUs>& scan_times = scans_it == scan_times_us.end() ? kNoScans : scans_it->second;
+      for (const std::size_t index : chosen) {
+        const TimeUs t_k = eligible_times[index];
+        const double d_k = eligible_distances[index];
+        const Eigen::Isometry3d T_world_basek = *trajectory.PoseAt(t_k);
+        Scene scene;
+        scene.camera = camera.name;
+        scene.lidar = lidar.name;
+        scene.image_t_us = t_k;
+        scene.distance_m = d_k;
+        std::vector<TimeUs> window;
+        if (selection.static_dataset) {
+          const auto range = std::equal_range(scan_times.begin(), scan_times.end(), t_k);
+          window.assign(range.first, range.second);
+        } else {
+          // Distance grows with time, so the window is a contiguous run of scans
+          // around t_k: walk back while within before_m, forward while within after_m.
+          const auto first_after = std::lower_bound(scan_times.begin(), scan_times.end(), t_k);
+          auto begin = first_after;
+          if (before_m > 0.0) {
+            while (begin != scan_times.begin() && trajectory.DistanceAt(*(begin - 1)) >= d_k - before_m &&
+                   *(begin - 1) >= trajectory.times_us().front()) {
+              --begin;
+            }
+          }
+          auto end = first_after;
+          if (after_m > 0.0) {
+            while (end != scan_times.end() && trajectory.DistanceAt(*end) <= d_k + after_m &&
+                   *end <= trajectory.times_us().back()) {
+              ++end;
+            }
+          } else {
+            // backward only: include a scan taken exactly at t_k
+            while (end != scan_times.end() && *end == t_k) ++end;
+          }
+          window.assign(begin, end);
+        }
+        if (options.max_scans_per_scene > 0 && window.size() > static_cast<std::size_t>(options.max_scans_per_scene)) {
+          std::vector<TimeUs> thinned;
+          for (const std::size_t i : ThinEvenly(window.size(), static_cast<std::size_t>(options.max_scans_per_scene)))
+            thinned.push_back(window[i]);
+          window.swap(thinned);
+        }
+        for (const TimeUs t_j : window) {
+          const std::optional<Eigen::Isometry3d> T_world_basej = trajectory.PoseAt(t_j);
+          if (!T_world_basej) {
+            ++pair_report.scans_without_pose;
+            continue;
+          }
+          scene.scans.push_back({t_j, T_world_basek.inverse() * *T_world_basej});
+        }
+        if (scene.scans.empty()) {
+          ++pair_report.frames_without_scans;
+          continue;
+        }
+        ++pair_report.scenes;
+        pair_report.scans_used += static_cast<int>(scene.scans.size());
+        selection.scenes.push_back(std::move(scene));
+      }
+      selection.pairs.push_back(pair_report);
+    }
+  }
+  return selection;
+}
+
+}  // namespace scenecal

@@ -1,0 +1,94 @@
+// Scene selection (paper II-B): which camera frames k are used, and which lidar
+// scans j form the swathe that is projected into each of them.
+//
+// Pure function of the rig, the trajectory and the sensor timestamps: no image
+// or scan is read. A scene is one (camera frame, lidar) combination; its
+// swathe holds the scans j of that lidar taken while the vehicle travels the
+// L metres after (forward), before (backward) or around (both) time k, with
+// each scan's pose relative to the camera frame's pose cached once:
+//   T_basek_basej = T_world_base(t_k)^-1 * T_world_base(t_j).
+#pragma once
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "core/rig.hpp"
+#include "core/trajectory.hpp"
+
+namespace scenecal {
+
+enum class SwatheDirection { kForward, kBackward, kBoth };
+// "forward" | "backward" | "both"; false for anything else.
+bool ParseSwatheDirection(const std::string& name, SwatheDirection* direction);
+const char* SwatheDirectionName(SwatheDirection direction);
+
+struct SceneOptions {
+  int scenes_per_camera = 30;        // S camera frames per camera (the paper: 30)
+  double swathe_length_m = 10.0;     // L, distance travelled while the swathe is gathered (the paper: 10 m)
+  SwatheDirection direction = SwatheDirection::kForward;
+  // Frames taken while the base moves slower than this (m/s, averaged over
+  // +-speed_window_s) are skipped: a standing vehicle builds no swathe and
+  // repeats the same view.
+  double min_speed_mps = 0.5;
+  double speed_window_s = 0.5;
+  // Cap on scans per scene (evenly thinned when exceeded); 0 = no cap.
+  int max_scans_per_scene = 0;
+
+  bool IsValid(std::string* why = nullptr) const;
+};
+
+// One scan of a swathe: its time and its cached pose relative to the frame.
+struct SwatheScan {
+  TimeUs t_us = 0;
+  Eigen::Isometry3d T_basek_basej = Eigen::Isometry3d::Identity();  // base at scan time -> base at image time
+};
+
+struct Scene {
+  std::string camera;
+  std::string lidar;
+  TimeUs image_t_us = 0;
+  double distance_m = 0.0;  // distance travelled at the image time (from the trajectory start)
+  std::vector<SwatheScan> scans;
+};
+
+// Counts per camera, so the CLI can say what was used and why frames were left out.
+struct CameraSelectionReport {
+  std::string camera;
+  int images = 0;                 // image timestamps offered
+  int skipped_no_pose = 0;        // outside the trajectory
+  int skipped_standing_still = 0; // speed below min_speed_mps
+  int skipped_window_outside = 0; // the swathe window leaves the trajectory
+  int eligible = 0;
+  int selected = 0;
+};
+
+struct LidarSelectionReport {
+  std::string camera;
+  std::string lidar;
+  int scenes = 0;                // selected frames that got at least one scan of this lidar
+  int frames_without_scans = 0;  // selected frames with no scan of this lidar in their window
+  int scans_used = 0;            // total over scenes (a scan may serve several scenes)
+  int scans_without_pose = 0;    // scans in a window but outside the trajectory
+};
+
+struct SceneSelection {
+  std::vector<Scene> scenes;  // ordered by camera, then lidar, then time
+  std::vector<CameraSelectionReport> cameras;
+  std::vector<LidarSelectionReport> pairs;
+  bool static_dataset = false;  // one-row trajectory: scans taken at the image time
+
+  // Multi-line human-readable summary (for the CLI log).
+  std::string Report() const;
+};
+
+// image_times_us: by camera name; scan_times_us: by lidar name; each sorted
+// ascending. Cameras and lidars not in the rig are ignored.
+SceneSelection SelectScenes(const Rig& rig, const Trajectory& trajectory,
+                            const std::map<std::string, std::vector<TimeUs>>& image_times_us,
+                            const std::map<std::string, std::vector<TimeUs>>& scan_times_us,
+                            const SceneOptions& options);
+
+}  // namespace scenecal

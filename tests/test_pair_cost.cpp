@@ -1,0 +1,258 @@
+// The pair cost on a synthetic scene built here: a slanted, textured plane
+// seen by a pinhole camera, lidar points on it whose reflectance is a
+// monotone function of the albedo. The cost must be lowest at the true
+// extrinsic, and the z-buffer must hide points behind a nearer surface.
+#include <cmath>
+#include <cstdint>
+#include <random>
+
+#include <gtest/gtest.h>
+#include <opencv2/core.hpp>
+
+#include "core/geometry.hpp"
+#include "core/pair_cost.hpp"
+
+namespace scenecal {
+namespace {
+
+CameraModel TestCamera() {
+  CameraModel camera;
+  camera.width = 640;
+  camera.height = 480;
+  camera.kind = CameraModelKind::kPinhole;
+  camera.fx = camera.fy = 600.0;
+  camera.cx = 319.5;
+  camera.cy = 239.5;
+  return camera;
+}
+
+// Piecewise-constant random albedo in [0, 1] on 3 cm cells of the plane.
+double Albedo(double a, double b) {
+  const auto cell_a = static_cast<std::int64_t>(std::floor(a / 0.03));
+  const auto cell_b = static_cast<std::int64_t>(std::floor(b / 0.03));
+  std::uint64_t h = static_cast<std::uint64_t>(cell_a * 73856093) ^ static_cast<std::uint64_t>(cell_b * 19349663);
+  h ^= h >> 33;
+  h *= 0xff51afd7ed558ccdULL;
+  h ^= h >> 33;
+  return static_cast<double>(h % 1000) / 999.0;
+}
+
+// A plane in the camera frame: points p = origin + a * axis_a + b * axis_b.
+struct Plane {
+  Eigen::Vector3d origin, axis_a, axis_b;
+  double half_a, half_b;  // extent, metres
+  Eigen::Vector3d Normal() const { return axis_a.cross(axis_b).normalized(); }
+  // Ray from the camera centre along d: plane coordinates of the hit, if within the extent.
+  bool Hit(const Eigen::Vector3d& d, double* depth, double* a, double* b) const {
+    const Eigen::Vector3d n = Normal();
+    const double denominator = n.dot(d);
+    if (std::abs(denominator) < 1e-9) return false;
+    const double t = n.dot(origin) / denominator;
+    if (t <= 0) return false;
+    const Eigen::Vector3d p = t * d - origin;
+    *a = p.dot(axis_a);
+    *b = p.dot(axis_b);
+    *depth = t * d.z();
+    return std::abs(*a) <= half_a && std::abs(*b) <= half_b;
+  }
+};
+
+Plane FarPlane() {
+  // 4 m ahead, slanted 25 deg about the camera's y axis and 10 deg about x.
+  const Eigen::Matrix3d r = RotationFromRollPitchYaw(RadiansFromDegrees(10), RadiansFromDegrees(25), 0);
+  return {Eigen::Vector3d(0, 0, 4.0), r.col(0), r.col(1), 3.0, 2.5};
+}
+
+Plane NearPlane() {  // an occluder 2 m ahead, right of centre
+  return {Eigen::Vector3d(0.3, 0.0, 2.0), Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY(), 0.15, 0.2};
+}
+
+struct Synthetic {
+  CameraInfo camera;
+  Eigen::Isometry3d T_camera_lidar;
+  cv::Mat image;
+  LidarScan scan;
+  std::vector<bool> on_far_plane;  // per scan point
+  std::vector<Eigen::Vector3d> p_camera;  // per scan point, camera frame
+};
+
+Synthetic MakeSynthetic(bool with_occluder) {
+  Synthetic s;
+  s.camera.name = "cam";
+  s.camera.model = TestCamera();
+  Vector6d tuple;
+  tuple << 0.4, -0.3, 0.2, RadiansFromDegrees(-3), RadiansFromDegrees(4), RadiansFromDegrees(2);
+  s.T_camera_lidar = TransformFromTuple(tuple);
+  const Plane far = FarPlane(), near = NearPlane();
+
+  s.image = cv::Mat(s.camera.model.height, s.camera.model.width, CV_32FC1, cv::Scalar(0.0f));
+  for (int v = 0; v < s.image.rows; ++v) {
+    for (int u = 0; u < s.image.cols; ++u) {
+      const Eigen::Vector3d d = s.camera.model.Unproject(Eigen::Vector2d(u, v));
+      double depth, a, b;
+      float intensity = 0.5f;
+      if (with_occluder && near.Hit(d, &depth, &a, &b)) {
+        intensity = static_cast<float>(Albedo(a + 100.0, b));
+      } else if (far.Hit(d, &depth, &a, &b)) {
+        intensity = static_cast<float>(Albedo(a, b));
+      }
+      s.image.at<float>(v, u) = intensity;
+    }
+  }
+  const Eigen::Isometry3d T_lidar_camera = s.T_camera_lidar.inverse();
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  const auto add_point = [&](const Plane& plane, double a, double b, double albedo, bool is_far) {
+    const Eigen::Vector3d p = plane.origin + a * plane.axis_a + b * plane.axis_b;
+    const Eigen::Vector3d q = T_lidar_camera * p;
+    const double reflectance = 5.0 + 200.0 * std::pow(albedo, 1.5);  // monotone, not linear
+    s.scan.points.push_back({static_cast<float>(q.x()), static_cast<float>(q.y()), static_cast<float>(q.z()),
+                             static_cast<float>(reflectance)});
+    s.on_far_plane.push_back(is_far);
+    s.p_camera.push_back(p);
+  };
+  for (int i = 0; i < 80000; ++i) {
+    const double a = far.half_a * unit(rng), b = far.half_b * unit(rng);
+    add_point(far, a, b, Albedo(a, b), true);
+  }
+  if (with_occluder) {
+    for (double a = -near.half_a; a <= near.half_a; a += 0.01) {
+      for (double b = -near.half_b; b <= near.half_b; b += 0.01) add_point(near, a, b, Albedo(a + 100.0, b), false);
+    }
+  }
+  return s;
+}
+
+PairCost MakeCost(const Synthetic& s, const PairCostOptions& options) {
+  Scene scene;
+  scene.camera = "cam";
+  scene.lidar = "lidar";
+  scene.scans.push_back({0, Eigen::Isometry3d::Identity()});
+  std::vector<SceneSwathe> swathes;
+  swathes.push_back(SceneSwathe::Build(scene, s.camera, s.image, {&s.scan}, options.swathe, NormalisationOptions{}));
+  return PairCost(s.camera, "lidar", std::move(swathes), options);
+}
+
+void ExpectLowestAtTruth(const PairCostOptions& options) {
+  const Synthetic s = MakeSynthetic(false);
+  PairCost cost = MakeCost(s, options);
+  ASSERT_EQ(cost.RefreshVisibility(s.T_camera_lidar), 1);
+  const double at_truth = cost.Evaluate(s.T_camera_lidar);
+  ASSERT_TRUE(std::isfinite(at_truth));
+  for (int axis = 0; axis < 6; ++axis) {
+    for (const double sign : {-1.0, 1.0}) {
+      Vector6d delta = Vector6d::Zero();
+      delta[axis] = sign * (axis < 3 ? 0.02 : RadiansFromDegrees(0.2));
+      const double perturbed = cost.Evaluate(ExpSE3(delta) * s.T_camera_lidar);
+      EXPECT_LT(at_truth, perturbed) << "axis " << axis << " sign " << sign << " metric "
+                                     << MetricKindName(options.metric) << " binning "
+                                     << BinningName(options.histogram.binning);
+    }
+  }
+}
+
+TEST(PairCost, NidLowestAtTruthHardBins) {
+  PairCostOptions options;
+  options.metric = MetricKind::kNid;
+  ExpectLowestAtTruth(options);
+}
+
+TEST(PairCost, NidLowestAtTruthBSplineBins) {
+  PairCostOptions options;
+  options.metric = MetricKind::kNid;
+  options.histogram.binning = Binning::kBSpline;
+  ExpectLowestAtTruth(options);
+}
+
+TEST(PairCost, MiLowestAtTruth) {
+  PairCostOptions options;
+  options.metric = MetricKind::kMi;
+  ExpectLowestAtTruth(options);
+}
+
+TEST(PairCost, CostIsMeanOfSceneCostsAndReportsCounts) {
+  const Synthetic s = MakeSynthetic(false);
+  PairCostOptions options;
+  PairCost cost = MakeCost(s, options);
+  cost.RefreshVisibility(s.T_camera_lidar);
+  const std::vector<SceneEvaluation> scenes = cost.EvaluateScenes(s.T_camera_lidar);
+  ASSERT_EQ(scenes.size(), 1u);
+  EXPECT_NEAR(scenes[0].cost, cost.Evaluate(s.T_camera_lidar), 1e-12);
+  EXPECT_EQ(scenes[0].projected_points, cost.ProjectedAtRefresh()[0]);
+  // Every far-plane point is in front; most project inside the image.
+  EXPECT_GT(scenes[0].projected_points, 40000u);
+  EXPECT_LE(scenes[0].projected_points, s.scan.points.size());
+  // NID on this strongly related pair is well below 1.
+  EXPECT_LT(scenes[0].cost, 0.9);
+}
+
+TEST(PairCost, TooFewPointsAndConstantImageAreIgnored) {
+  Synthetic s = MakeSynthetic(false);
+  PairCostOptions options;
+  options.min_points_per_scene = 1'000'000;
+  PairCost few = MakeCost(s, options);
+  EXPECT_EQ(few.RefreshVisibility(s.T_camera_lidar), 0);
+  EXPECT_EQ(few.CountState(SceneState::kTooFewPoints), 1);
+  EXPECT_TRUE(std::isnan(few.Evaluate(s.T_camera_lidar)));
+
+  s.image.setTo(cv::Scalar(0.3f));
+  PairCost constant = MakeCost(s, PairCostOptions{});
+  EXPECT_EQ(constant.RefreshVisibility(s.T_camera_lidar), 0);
+  EXPECT_EQ(constant.CountState(SceneState::kConstantImage), 1);
+}
+
+TEST(PairCost, VisibilityHidesPointsBehindANearerSurface) {
+  const Synthetic s = MakeSynthetic(true);
+  PairCostOptions options;
+  Scene scene;
+  scene.camera = "cam";
+  scene.lidar = "lidar";
+  scene.scans.push_back({0, Eigen::Isometry3d::Identity()});
+  SceneSwathe swathe =
+      SceneSwathe::Build(scene, s.camera, s.image, {&s.scan}, options.swathe, NormalisationOptions{});
+  ASSERT_EQ(swathe.PointCount(), s.scan.points.size());  // all within the range limits
+  swathe.RefreshVisibility(s.T_camera_lidar, options.swathe);
+
+  // Classify far-plane points by whether the camera ray to them hits the occluder
+  // (with a border of two z-buffer cells, 16 px, left out on each side).
+  const Plane near = NearPlane();
+  std::vector<bool> visible(s.scan.points.size(), false);
+  swathe.ForEachProjected(s.T_camera_lidar, true, [&](std::size_t i, float, float, float, float) { visible[i] = true; });
+  int behind = 0, behind_hidden = 0, clear = 0, clear_hidden = 0, near_points = 0, near_hidden = 0;
+  const CameraModel& model = s.camera.model;
+  for (std::size_t i = 0; i < s.p_camera.size(); ++i) {
+    Eigen::Vector2d pixel;
+    if (!model.Project(s.p_camera[i], &pixel, 0.5)) continue;
+    if (!s.on_far_plane[i]) {
+      ++near_points;
+      near_hidden += visible[i] ? 0 : 1;
+      continue;
+    }
+    // The occluder spans u = 319.5 + 600 * [0.15, 0.45] / 2, v = 239.5 + 600 * [-0.2, 0.2] / 2.
+    const double u0 = 319.5 + 300.0 * (near.origin.x() - near.half_a), u1 = 319.5 + 300.0 * (near.origin.x() + near.half_a);
+    const double v0 = 239.5 - 300.0 * near.half_b, v1 = 239.5 + 300.0 * near.half_b;
+    const bool inside = pixel.x() > u0 + 16 && pixel.x() < u1 - 16 && pixel.y() > v0 + 16 && pixel.y() < v1 - 16;
+    const bool outside = pixel.x() < u0 - 16 || pixel.x() > u1 + 16 || pixel.y() < v0 - 16 || pixel.y() > v1 + 16;
+    if (inside) {
+      ++behind;
+      behind_hidden += visible[i] ? 0 : 1;
+    } else if (outside) {
+      ++clear;
+      clear_hidden += visible[i] ? 0 : 1;
+    }
+  }
+  ASSERT_GT(behind, 500);
+  ASSERT_GT(near_points, 500);
+  EXPECT_GT(behind_hidden, 0.99 * behind) << behind_hidden << " of " << behind;
+  EXPECT_LT(clear_hidden, 0.01 * clear) << clear_hidden << " of " << clear;
+  EXPECT_EQ(near_hidden, 0);
+
+  // With occlusion off nothing is hidden.
+  SwatheOptions no_occlusion = options.swathe;
+  no_occlusion.occlusion = false;
+  swathe.RefreshVisibility(s.T_camera_lidar, no_occlusion);
+  EXPECT_EQ(swathe.VisibleCount(), swathe.PointCount());
+}
+
+}  // namespace
+}  // namespace scenecal

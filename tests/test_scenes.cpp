@@ -1,0 +1,217 @@
+// Scene selection and swathe windows on synthetic trajectories.
+#include <algorithm>
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "core/geometry.hpp"
+#include "core/scenes.hpp"
+
+namespace scenecal {
+namespace {
+
+constexpr TimeUs kSecond = 1'000'000;
+
+Rig OneCameraOneLidar() {
+  Rig rig;
+  rig.base_frame = "left";
+  CameraInfo camera;
+  camera.name = "left";
+  rig.cameras.push_back(camera);
+  LidarInfo lidar;
+  lidar.name = "rear";
+  rig.lidars.push_back(lidar);
+  return rig;
+}
+
+// Straight drive along x at 1 m/s for 100 s, except standing still (x held)
+// between 40 s and 60 s. Samples every 0.1 s.
+Trajectory DriveWithStop() {
+  std::vector<TimeUs> times;
+  std::vector<Eigen::Isometry3d> poses;
+  for (int i = 0; i <= 1000; ++i) {
+    const double t = 0.1 * i;
+    const double x = t < 40.0 ? t : (t < 60.0 ? 40.0 : t - 20.0);
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    pose.translation() = Eigen::Vector3d(x, 0, 0);
+    times.push_back(static_cast<TimeUs>(i) * kSecond / 10);
+    poses.push_back(pose);
+  }
+  return Trajectory(times, poses);
+}
+
+std::vector<TimeUs> Every(TimeUs period, TimeUs begin, TimeUs end) {
+  std::vector<TimeUs> times;
+  for (TimeUs t = begin; t <= end; t += period) times.push_back(t);
+  return times;
+}
+
+TEST(Scenes, OptionsValidation) {
+  SceneOptions options;
+  std::string why;
+  EXPECT_TRUE(options.IsValid(&why)) << why;
+  options.swathe_length_m = 0.0;
+  EXPECT_FALSE(options.IsValid(&why));
+  EXPECT_NE(why.find("swathe_length_m"), std::string::npos);
+  options = SceneOptions{};
+  options.scenes_per_camera = 0;
+  EXPECT_FALSE(options.IsValid());
+  SwatheDirection direction;
+  EXPECT_TRUE(ParseSwatheDirection("both", &direction));
+  EXPECT_EQ(direction, SwatheDirection::kBoth);
+  EXPECT_FALSE(ParseSwatheDirection("sideways", &direction));
+}
+
+TEST(Scenes, SpreadsFramesByDistanceAndSkipsStandingStill) {
+  const Trajectory trajectory = DriveWithStop();  // 80 m in total
+  SceneOptions options;
+  options.scenes_per_camera = 8;
+  options.swathe_length_m = 10.0;
+  const SceneSelection selection =
+      SelectScenes(OneCameraOneLidar(), trajectory, {{"left", Every(kSecond / 10, 0, 100 * kSecond)}},
+                   {{"rear", Every(kSecond / 50, 0, 100 * kSecond)}}, options);
+  ASSERT_EQ(selection.cameras.size(), 1u);
+  const CameraSelectionReport& report = selection.cameras[0];
+  EXPECT_EQ(report.images, 1001);
+  EXPECT_EQ(report.selected, 8);
+  // About 19 s of standing still (the speed window smooths the edges).
+  EXPECT_GT(report.skipped_standing_still, 180);
+  EXPECT_LT(report.skipped_standing_still, 200);
+  // The last 10 m cannot hold a forward window.
+  EXPECT_GT(report.skipped_window_outside, 90);
+  ASSERT_EQ(selection.scenes.size(), 8u);
+  std::vector<double> distances;
+  for (const Scene& scene : selection.scenes) {
+    EXPECT_FALSE(scene.image_t_us > 40 * kSecond + kSecond / 2 && scene.image_t_us < 60 * kSecond - kSecond / 2)
+        << "frame at " << scene.image_t_us << " us is inside the stop";
+    distances.push_back(scene.distance_m);
+  }
+  // Eligible distances span [0, 70] m; 8 frames -> every 10 m.
+  for (std::size_t i = 0; i < distances.size(); ++i) {
+    EXPECT_NEAR(distances[i], 10.0 * static_cast<double>(i), 0.6) << "frame " << i;
+  }
+}
+
+TEST(Scenes, ForwardBackwardAndBothWindows) {
+  const Trajectory trajectory = DriveWithStop();
+  const auto scans = Every(kSecond / 50, 0, 100 * kSecond);
+  for (const SwatheDirection direction :
+       {SwatheDirection::kForward, SwatheDirection::kBackward, SwatheDirection::kBoth}) {
+    SceneOptions options;
+    options.scenes_per_camera = 5;
+    options.swathe_length_m = 5.0;
+    options.direction = direction;
+    const SceneSelection selection =
+        SelectScenes(OneCameraOneLidar(), trajectory, {{"left", Every(kSecond / 10, 0, 100 * kSecond)}},
+                     {{"rear", scans}}, options);
+    ASSERT_EQ(selection.scenes.size(), 5u) << SwatheDirectionName(direction);
+    for (const Scene& scene : selection.scenes) {
+      ASSERT_FALSE(scene.scans.empty());
+      const double before = direction == SwatheDirection::kForward ? 0.0 : 5.0;
+      const double after = direction == SwatheDirection::kBackward ? 0.0 : 5.0;
+      for (const SwatheScan& scan : scene.scans) {
+        const double d = trajectory.DistanceAt(scan.t_us);
+        EXPECT_GE(d, scene.distance_m - before - 1e-9);
+        EXPECT_LE(d, scene.distance_m + after + 1e-9);
+        if (direction == SwatheDirection::kForward) {
+          EXPECT_GE(scan.t_us, scene.image_t_us);
+        }
+        if (direction == SwatheDirection::kBackward) {
+          EXPECT_LE(scan.t_us, scene.image_t_us);
+        }
+        // Straight drive along x: the relative pose is a pure x shift of d_j - d_k.
+        EXPECT_NEAR(scan.T_basek_basej.translation().x(), d - scene.distance_m, 1e-9);
+      }
+      // The window is filled: scans reach (within one scan spacing) both ends.
+      const double first = trajectory.DistanceAt(scene.scans.front().t_us) - scene.distance_m;
+      const double last = trajectory.DistanceAt(scene.scans.back().t_us) - scene.distance_m;
+      EXPECT_NEAR(first, -before, 0.05);
+      EXPECT_NEAR(last, after, 0.05);
+    }
+    ASSERT_EQ(selection.pairs.size(), 1u);
+    EXPECT_EQ(selection.pairs[0].scenes, 5);
+  }
+}
+
+TEST(Scenes, ScanCapThinsEvenly) {
+  SceneOptions options;
+  options.scenes_per_camera = 3;
+  options.max_scans_per_scene = 20;
+  const SceneSelection selection =
+      SelectScenes(OneCameraOneLidar(), DriveWithStop(), {{"left", Every(kSecond / 10, 0, 100 * kSecond)}},
+                   {{"rear", Every(kSecond / 50, 0, 100 * kSecond)}}, options);
+  ASSERT_EQ(selection.scenes.size(), 3u);
+  for (const Scene& scene : selection.scenes) {
+    EXPECT_EQ(scene.scans.size(), 20u);
+    // Evenly thinned: still spans most of the 10 m window.
+    EXPECT_GT(scene.scans.back().T_basek_basej.translation().x() - scene.scans.front().T_basek_basej.translation().x(),
+              8.0);
+  }
+}
+
+TEST(Scenes, StaticSingleFrameDataset) {
+  const TimeUs t0 = 1'418'381'798'086'398;
+  const Trajectory trajectory({t0}, {Eigen::Isometry3d::Identity()});
+  const SceneSelection selection = SelectScenes(OneCameraOneLidar(), trajectory, {{"left", {t0}}},
+                                                {{"rear", {t0 - 5, t0, t0 + 7}}}, SceneOptions{});
+  EXPECT_TRUE(selection.static_dataset);
+  ASSERT_EQ(selection.scenes.size(), 1u);
+  const Scene& scene = selection.scenes[0];
+  EXPECT_EQ(scene.image_t_us, t0);
+  ASSERT_EQ(scene.scans.size(), 1u);
+  EXPECT_EQ(scene.scans[0].t_us, t0);
+  EXPECT_TRUE(scene.scans[0].T_basek_basej.isApprox(Eigen::Isometry3d::Identity()));
+}
+
+TEST(Scenes, NoLidarScansInWindowIsCounted) {
+  SceneOptions options;
+  options.scenes_per_camera = 4;
+  // Scans only during the first 20 s: later frames get none.
+  const SceneSelection selection =
+      SelectScenes(OneCameraOneLidar(), DriveWithStop(), {{"left", Every(kSecond / 10, 0, 100 * kSecond)}},
+                   {{"rear", Every(kSecond / 50, 0, 20 * kSecond)}}, options);
+  ASSERT_EQ(selection.pairs.size(), 1u);
+  EXPECT_EQ(selection.pairs[0].scenes + selection.pairs[0].frames_without_scans, 4);
+  EXPECT_GE(selection.pairs[0].frames_without_scans, 2);
+  EXPECT_FALSE(selection.Report().empty());
+}
+
+// Circular drive (radius 20 m, 2 m/s, heading tangent): the cached relative
+// poses must equal the closed-form T_world_base(t_k)^-1 * T_world_base(t_j).
+TEST(Scenes, CachedRelativePoseMatchesDirectComputation) {
+  const double radius = 20.0, speed = 2.0;
+  const auto pose_at = [&](double t) {
+    const double angle = speed * t / radius;
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    pose.translation() = Eigen::Vector3d(radius * std::sin(angle), radius * (1.0 - std::cos(angle)), 0.1 * std::sin(t));
+    pose.linear() = RotationFromRollPitchYaw(0.02 * std::sin(0.5 * t), 0.01 * t, angle);
+    return pose;
+  };
+  std::vector<TimeUs> times;
+  std::vector<Eigen::Isometry3d> poses;
+  for (int i = 0; i <= 3000; ++i) {  // 30 s at 100 Hz
+    times.push_back(static_cast<TimeUs>(i) * kSecond / 100);
+    poses.push_back(pose_at(0.01 * i));
+  }
+  const Trajectory trajectory(times, poses);
+  SceneOptions options;
+  options.scenes_per_camera = 4;
+  options.direction = SwatheDirection::kBoth;
+  // Scan times off the trajectory samples, so interpolation is exercised.
+  const SceneSelection selection =
+      SelectScenes(OneCameraOneLidar(), trajectory, {{"left", Every(kSecond / 15, 0, 30 * kSecond)}},
+                   {{"rear", Every(kSecond / 37, 3333, 30 * kSecond)}}, options);
+  ASSERT_EQ(selection.scenes.size(), 4u);
+  for (const Scene& scene : selection.scenes) {
+    const Eigen::Isometry3d T_world_basek = pose_at(static_cast<double>(scene.image_t_us) / kSecond);
+    for (const SwatheScan& scan : scene.scans) {
+      const Eigen::Isometry3d direct = T_world_basek.inverse() * pose_at(static_cast<double>(scan.t_us) / kSecond);
+      // Interpolating 10 ms samples of a smooth path: sub-millimetre agreement.
+      EXPECT_LT(TranslationError(scan.T_basek_basej, direct), 1e-3);
+      EXPECT_LT(RotationErrorDegrees(scan.T_basek_basej, direct), 1e-3);
+    }
+  }
+}
+
+}  // namespace
+}  // namespace scenecal
