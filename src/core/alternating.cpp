@@ -47,7 +47,7 @@ bool AlternatingProblem::IsValid(std::string* why) const {
 
 LowerLevelOutcome SolveLowerLevel(const PairObjective& objective, const LowerLevelTask& task,
                                   const StopRequested& stop_requested) {
-  if (objective.refresh_visibility) objective.refresh_visibility(task.T_camera_lidar_start);
+  if (objective.prepare) objective.prepare(task.T_camera_lidar_start, task.alternation);
   const Eigen::Isometry3d T_lidar_camera_upper = task.T_camera_lidar_upper.inverse();
   const auto penalised = [&](const Eigen::Isometry3d& T_camera_lidar) {
     const Vector6d difference = LogSE3(T_camera_lidar * T_lidar_camera_upper);
@@ -135,6 +135,7 @@ AlternatingResult SolveAlternating(const AlternatingProblem& problem, const Alte
     for (std::size_t p = 0; p < pair_count; ++p) {
       LowerLevelTask& task = tasks[p];
       task.pair = static_cast<int>(p);
+      task.alternation = alternation;
       task.T_camera_lidar_upper = upper[p];
       task.T_camera_lidar_start = upper[p];
       task.penalty_information = information;

@@ -52,6 +52,7 @@ struct AlternatingOptions {
 // One lower-level problem (eq. 13) as a backend receives it.
 struct LowerLevelTask {
   int pair = 0;                                            // index into AlternatingProblem::pairs
+  int alternation = 0;                                     // i, for the pair's coarse-to-fine preparation
   Eigen::Isometry3d T_camera_lidar_upper = Eigen::Isometry3d::Identity();  // T_pL, fixed
   Eigen::Isometry3d T_camera_lidar_start = Eigen::Isometry3d::Identity();  // where the simplex starts
   Matrix6d penalty_information = Matrix6d::Identity();    // (P^i)^-1
@@ -74,11 +75,12 @@ class LowerLevelBackend {
                                                const StopRequested& stop_requested) = 0;
 };
 
-// The cost of one pair and the hook to refresh its occlusion state at an
-// estimate (called between optimiser runs, never inside one).
+// The cost of one pair and the hook that prepares it before a lower-level run
+// at alternation i from the estimate T (refresh occlusion, choose the image
+// smoothing): called between optimiser runs, never inside one.
 struct PairObjective {
   std::function<double(const Eigen::Isometry3d& T_camera_lidar)> cost;
-  std::function<void(const Eigen::Isometry3d& T_camera_lidar)> refresh_visibility;  // may be empty
+  std::function<void(const Eigen::Isometry3d& T_camera_lidar, int alternation)> prepare;  // may be empty
 };
 
 // f + |T^ (-) T_upper|^2_P, minimised by Nelder-Mead from task.T_camera_lidar_start.

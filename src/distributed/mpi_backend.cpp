@@ -14,7 +14,7 @@ namespace {
 constexpr int kRoot = 0;
 constexpr double kCommandFinish = 0.0;
 constexpr double kCommandSolve = 1.0;
-constexpr int kTaskDoubles = 1 + 16 + 16 + 36 + 7;
+constexpr int kTaskDoubles = 2 + 16 + 16 + 36 + 7 + 4;
 constexpr int kOutcomeDoubles = 16 + 2 + 4 + 1;
 
 void Check(int code, const char* what) {
@@ -41,6 +41,11 @@ void EncodeTask(const LowerLevelTask& task, double* out) {
                              static_cast<double>(o.max_iterations), static_cast<double>(o.max_evaluations),
                              o.function_tolerance, o.simplex_tolerance_translation_m, o.simplex_tolerance_rotation_rad};
   std::memcpy(out + 69, options, sizeof(options));
+  out[76] = static_cast<double>(static_cast<int>(o.transform_update));
+  out[77] = o.pivot_source.x();
+  out[78] = o.pivot_source.y();
+  out[79] = o.pivot_source.z();
+  out[80] = task.alternation;
 }
 
 LowerLevelTask DecodeTask(const double* in) {
@@ -57,6 +62,9 @@ LowerLevelTask DecodeTask(const double* in) {
   o.function_tolerance = in[73];
   o.simplex_tolerance_translation_m = in[74];
   o.simplex_tolerance_rotation_rad = in[75];
+  o.transform_update = static_cast<TransformUpdate>(static_cast<int>(in[76]));
+  o.pivot_source = Eigen::Vector3d(in[77], in[78], in[79]);
+  task.alternation = static_cast<int>(in[80]);
   return task;
 }
 
