@@ -13,6 +13,7 @@
 #include <array>
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
 #include <optional>
 #include <span>
 #include <string>
@@ -133,6 +134,14 @@ class JointHistogram {
       const double weight_x = wx.weights[a];
       for (int b = 0; b < 4; ++b) row[columns[b]] += weight_x * wy.weights[b];
     }
+  }
+
+  // Adds integer bin counts (row-major like Weights(), nx * ny entries) that
+  // stand for `samples` hard-binned samples: the fast path of cost kernels,
+  // which count into a per-thread integer table and add it once. Exact.
+  void AddCounts(const std::uint32_t* counts, std::size_t samples) {
+    for (std::size_t i = 0; i < weights_.size(); ++i) weights_[i] += static_cast<double>(counts[i]);
+    samples_ += samples;
   }
 
   // Adds the other histogram's weights and samples. Returns false (and

@@ -2,11 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_reduce.h>
 
 namespace scenecal {
 
@@ -89,12 +89,23 @@ double PairCost::SceneCost(std::size_t scene, const Eigen::Isometry3d& T_camera_
   const SceneSwathe& swathe = scenes_[scene];
   JointHistogram histogram(options_.histogram);
   if (options_.histogram.binning == Binning::kHard) {
+    // Integer counts in a per-thread table (no allocation once warm), added to
+    // the histogram once: exact, and the same weights as AddHard per sample.
+    const int nx = histogram.ReflectanceBins(), ny = histogram.IntensityBins();
+    thread_local std::vector<std::uint32_t> counts;
+    counts.assign(static_cast<std::size_t>(nx) * static_cast<std::size_t>(ny), 0u);
+    std::uint32_t* const table = counts.data();
+    const SceneSwathe::BilinearSampler sample = swathe.Sampler();
+    std::size_t samples = 0;
     swathe.ForEachProjected(T_camera_lidar, true, [&](std::size_t, float x01, float u, float v, float) {
-      histogram.AddHard(x01, swathe.Sample(u, v));
+      ++table[HardBin(x01, nx) * ny + HardBin(sample(u, v), ny)];
+      ++samples;
     });
+    histogram.AddCounts(table, samples);
   } else {
+    const SceneSwathe::BilinearSampler sample = swathe.Sampler();
     swathe.ForEachProjected(T_camera_lidar, true, [&](std::size_t, float x01, float u, float v, float) {
-      histogram.AddBSpline(x01, swathe.Sample(u, v));
+      histogram.AddBSpline(x01, sample(u, v));
     });
   }
   if (projected != nullptr) *projected = histogram.Samples();
@@ -103,13 +114,56 @@ double PairCost::SceneCost(std::size_t scene, const Eigen::Isometry3d& T_camera_
 
 double PairCost::Evaluate(const Eigen::Isometry3d& T_camera_lidar) const {
   if (used_.empty()) return std::numeric_limits<double>::quiet_NaN();
-  const double sum = tbb::parallel_reduce(
-      tbb::blocked_range<std::size_t>(0, used_.size(), 1), 0.0,
-      [&](const tbb::blocked_range<std::size_t>& range, double partial) {
-        for (std::size_t i = range.begin(); i != range.end(); ++i) partial += SceneCost(used_[i], T_camera_lidar, nullptr);
-        return partial;
-      },
-      std::plus<>());
+  // Scenes in parallel, each filled in a fixed order by one task, and summed
+  // in scene order: the same input gives bit-identical costs whatever the
+  // thread count or scheduling (the MPI backend relies on it).
+  thread_local std::vector<double> scene_costs;
+  std::vector<double>& costs = scene_costs;
+  costs.assign(used_.size(), 0.0);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, used_.size(), 1),
+                    [&](const tbb::blocked_range<std::size_t>& range) {
+                      for (std::size_t i = range.begin(); i != range.end(); ++i)
+                        costs[i] = SceneCost(used_[i], T_camera_lidar, nullptr);
+                    });
+  double sum = 0.0;
+  for (const double c : costs) sum += c;
+  return sum / static_cast<double>(used_.size());
+}
+
+double PairCost::SceneCostAndGradient(std::size_t scene, const Eigen::Isometry3d& T_camera_lidar,
+                                      TransformUpdate update, const Eigen::Vector3d& pivot_source,
+                                      Vector6d* gradient) const {
+  const SceneSwathe& swathe = scenes_[scene];
+  if (options_.histogram.binning == Binning::kHard) {
+    *gradient = Vector6d::Zero();  // piecewise constant
+    return SceneCost(scene, T_camera_lidar, nullptr);
+  }
+  JointHistogram histogram(options_.histogram);
+  const SceneSwathe::BilinearSampler sample = swathe.Sampler();
+  swathe.ForEachProjected(T_camera_lidar, true, [&](std::size_t, float x01, float u, float v, float) {
+    histogram.AddBSpline(x01, sample(u, v));
+  });
+  CostGradient dcost;
+  dcost.Compute(histogram, options_.metric);
+  *gradient = swathe.SampleGradientSum(T_camera_lidar, update, pivot_source, dcost);
+  return CostValue(ComputeInformation(histogram), options_.metric);
+}
+
+double PairCost::EvaluateWithGradient(const Eigen::Isometry3d& T_camera_lidar, TransformUpdate update,
+                                      const Eigen::Vector3d& pivot_source, Vector6d* gradient) const {
+  *gradient = Vector6d::Zero();
+  if (used_.empty()) return std::numeric_limits<double>::quiet_NaN();
+  std::vector<double> costs(used_.size(), 0.0);
+  std::vector<Vector6d> gradients(used_.size(), Vector6d::Zero());
+  tbb::parallel_for(std::size_t{0}, used_.size(), [&](std::size_t i) {
+    costs[i] = SceneCostAndGradient(used_[i], T_camera_lidar, update, pivot_source, &gradients[i]);
+  });
+  double sum = 0.0;
+  for (std::size_t i = 0; i < used_.size(); ++i) {  // scene order: deterministic
+    sum += costs[i];
+    *gradient += gradients[i];
+  }
+  *gradient /= static_cast<double>(used_.size());
   return sum / static_cast<double>(used_.size());
 }
 

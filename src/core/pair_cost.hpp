@@ -60,6 +60,15 @@ class PairCost {
 
   // Mean cost over the used scenes; NaN when no scene is used. Thread-safe.
   double Evaluate(const Eigen::Isometry3d& T_camera_lidar) const;
+  // The cost (as Evaluate, same value) and its gradient with respect to the
+  // local update delta = [rho; phi] of ApplyTransformUpdate(T_camera_lidar,
+  // delta, update, pivot_source) at delta = 0 (core/nelder_mead.hpp). Analytic
+  // for B-spline binning (samples entering or leaving the image are ignored);
+  // zero for hard binning (piecewise constant). NaN cost and zero gradient when
+  // no scene is used. Thread-safe; deterministic (scenes summed in order).
+  double EvaluateWithGradient(const Eigen::Isometry3d& T_camera_lidar, TransformUpdate update,
+                              const Eigen::Vector3d& pivot_source, Vector6d* gradient) const;
+
   // Per-scene detail at T_camera_lidar (every scene; state from the last refresh).
   std::vector<SceneEvaluation> EvaluateScenes(const Eigen::Isometry3d& T_camera_lidar) const;
 
@@ -84,6 +93,9 @@ class PairCost {
 
  private:
   double SceneCost(std::size_t scene, const Eigen::Isometry3d& T_camera_lidar, std::size_t* projected) const;
+  // SceneCost plus, when gradient is given, the scene's gradient (EvaluateWithGradient).
+  double SceneCostAndGradient(std::size_t scene, const Eigen::Isometry3d& T_camera_lidar, TransformUpdate update,
+                              const Eigen::Vector3d& pivot_source, Vector6d* gradient) const;
 
   CameraInfo camera_;
   std::string lidar_;

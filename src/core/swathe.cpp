@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 
+#include <ceres/jet.h>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -96,6 +97,16 @@ std::size_t SceneSwathe::CountProjected(const Eigen::Isometry3d& T_camera_lidar)
   return count;
 }
 
+std::vector<std::size_t> SceneSwathe::CountProjectedPerScan(const Eigen::Isometry3d& T_camera_lidar) const {
+  std::vector<std::size_t> counts(ScanCount(), 0);
+  ForEachProjected(T_camera_lidar, false, [&](std::size_t i, float, float, float, float) {
+    // scan_begin_ is ascending: the scan of point i is the last one starting at or before i.
+    const auto scan = std::upper_bound(scan_begin_.begin(), scan_begin_.end(), i) - scan_begin_.begin() - 1;
+    ++counts[static_cast<std::size_t>(scan)];
+  });
+  return counts;
+}
+
 Eigen::Vector3d SceneSwathe::SumProjectedLidarPoints(const Eigen::Isometry3d& T_camera_lidar,
                                                      std::size_t* count) const {
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
@@ -105,6 +116,85 @@ Eigen::Vector3d SceneSwathe::SumProjectedLidarPoints(const Eigen::Isometry3d& T_
     ++n;
   });
   if (count != nullptr) *count = n;
+  return sum;
+}
+
+namespace {
+
+// d(u, v) / d(p_camera) of the camera model at the camera-frame point p
+// (metres; in front). Distortion is differentiated with Jets through the same
+// templates as ProjectFast / CameraModel::Project.
+Eigen::Matrix<double, 2, 3> ProjectionJacobian(const ProjectionParams& params, const Eigen::Vector3d& p) {
+  using Jet = ceres::Jet<double, 2>;
+  const double inverse_z = 1.0 / p.z();
+  const Jet xn(p.x() * inverse_z, 0), yn(p.y() * inverse_z, 1);
+  Jet xd = xn, yd = yn;
+  switch (params.kind) {
+    case CameraModelKind::kPinhole:
+      break;
+    case CameraModelKind::kRadTan: {
+      const Jet k[5] = {Jet(params.k[0]), Jet(params.k[1]), Jet(params.k[2]), Jet(params.k[3]), Jet(params.k[4])};
+      camera_detail::DistortRadTan(k, xn, yn, &xd, &yd);
+      break;
+    }
+    case CameraModelKind::kEquidistant: {
+      const Jet k[4] = {Jet(params.k[0]), Jet(params.k[1]), Jet(params.k[2]), Jet(params.k[3])};
+      // Away from the axis (r > 1e-8, where the model is smooth); on it the scale is 1.
+      const Jet r = ceres::sqrt(xn * xn + yn * yn + Jet(1e-300));
+      const Jet scale = camera_detail::EquidistantScale(k, r, ceres::atan(r));
+      xd = xn * scale;
+      yd = yn * scale;
+      break;
+    }
+  }
+  Eigen::Matrix2d d_distorted_d_normalised;
+  d_distorted_d_normalised << xd.v[0], xd.v[1], yd.v[0], yd.v[1];
+  Eigen::Matrix<double, 2, 3> d_normalised_d_p;
+  d_normalised_d_p << inverse_z, 0.0, -p.x() * inverse_z * inverse_z, 0.0, inverse_z, -p.y() * inverse_z * inverse_z;
+  const Eigen::Matrix2d focal = Eigen::Vector2d(params.fx, params.fy).asDiagonal();
+  return focal * d_distorted_d_normalised * d_normalised_d_p;
+}
+
+Eigen::Matrix3d Skew(const Eigen::Vector3d& w) {
+  Eigen::Matrix3d m;
+  m << 0.0, -w.z(), w.y(), w.z(), 0.0, -w.x(), -w.y(), w.x(), 0.0;
+  return m;
+}
+
+}  // namespace
+
+Vector6d SceneSwathe::SampleGradientSum(const Eigen::Isometry3d& T_camera_lidar, TransformUpdate update,
+                                        const Eigen::Vector3d& pivot_source, const CostGradient& dcost) const {
+  Vector6d sum = Vector6d::Zero();
+  if (image_.empty()) return sum;
+  const Eigen::Vector3d pivot_camera = T_camera_lidar * pivot_source;
+  std::size_t scan = 0;
+  if (T_camerak_cameraj_.empty()) return sum;
+  Eigen::Matrix3d R_camerak_cameraj = T_camerak_cameraj_[0].linear();
+  ForEachProjected(T_camera_lidar, true, [&](std::size_t i, float x01, float u, float v, float) {
+    while (i >= scan_begin_[scan + 1]) R_camerak_cameraj = T_camerak_cameraj_[++scan].linear();
+    // Image gradient of the bilinear interpolant Sample(u, v) (per pixel).
+    const int u0 = static_cast<int>(u), v0 = static_cast<int>(v);
+    const double fu = u - static_cast<float>(u0), fv = v - static_cast<float>(v0);
+    const float* row0 = image_.ptr<float>(v0) + u0;
+    const float* row1 = image_.ptr<float>(v0 + 1) + u0;
+    const double y01 = Sample(u, v);
+    const double dcost_dy = dcost.SampleDerivative(x01, static_cast<float>(y01));
+    if (dcost_dy == 0.0) return;
+    const Eigen::RowVector2d dy_duv((1.0 - fv) * (row0[1] - row0[0]) + fv * (row1[1] - row1[0]),
+                                    (1.0 - fu) * (row1[0] - row0[0]) + fu * (row1[1] - row0[1]));
+    // p_cameraj = T_camera_lidar * x; the swathe point in the image frame k: p = R_kj p_cameraj + t_kj.
+    const Eigen::Vector3d p_cameraj = T_camera_lidar * Eigen::Vector3d(x_[i], y_[i], z_[i]);
+    const Eigen::Vector3d p = T_camerak_cameraj_[scan] * p_cameraj;
+    // dp_cameraj/ddelta = [I, -[w]x]: w = p_cameraj for the left twist, the
+    // point relative to the pivot for the update about the pivot.
+    const Eigen::Vector3d w = update == TransformUpdate::kLeftTwist ? p_cameraj : Eigen::Vector3d(p_cameraj - pivot_camera);
+    Eigen::Matrix<double, 3, 6> dp_ddelta;
+    dp_ddelta.leftCols<3>() = R_camerak_cameraj;
+    dp_ddelta.rightCols<3>() = -R_camerak_cameraj * Skew(w);
+    const Eigen::RowVector3d dy_dp = dy_duv * ProjectionJacobian(projection_, p);
+    sum += dcost_dy * (dy_dp * dp_ddelta).transpose();
+  });
   return sum;
 }
 

@@ -16,7 +16,9 @@
 // refreshed between optimiser runs, never inside one, so the cost does not jump.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
+#include <iterator>
 #include <string>
 #include <vector>
 
@@ -24,6 +26,8 @@
 #include <opencv2/core/mat.hpp>
 
 #include "core/camera_kernel.hpp"
+#include "core/metric.hpp"
+#include "core/nelder_mead.hpp"
 #include "core/normalisation.hpp"
 #include "core/rig.hpp"
 #include "core/scenes.hpp"
@@ -81,13 +85,43 @@ class SceneSwathe {
     return (1.0f - fv) * ((1.0f - fu) * row0[0] + fu * row0[1]) + fv * ((1.0f - fu) * row1[0] + fu * row1[1]);
   }
 
+  // The same bilinear sampling as Sample, on a flat copy of the image's
+  // pointer and row stride: hot loops keep these in registers (the compiler
+  // cannot, through cv::Mat, once the loop writes to memory).
+  struct BilinearSampler {
+    const float* data = nullptr;
+    std::size_t stride = 0;  // floats per row
+    float operator()(float u, float v) const {
+      const int u0 = static_cast<int>(u), v0 = static_cast<int>(v);
+      const float fu = u - static_cast<float>(u0), fv = v - static_cast<float>(v0);
+      const float* row0 = data + static_cast<std::size_t>(v0) * stride + u0;
+      const float* row1 = row0 + stride;
+      return (1.0f - fv) * ((1.0f - fu) * row0[0] + fu * row0[1]) + fv * ((1.0f - fu) * row1[0] + fu * row1[1]);
+    }
+  };
+  BilinearSampler Sampler() const { return {image_.ptr<float>(), image_.step1()}; }
+
   // Recomputes the visibility mask with the z-buffer at T_camera_lidar; points
   // that do not project at this estimate stay visible. Returns the number of
   // points that project (before hiding).
   std::size_t RefreshVisibility(const Eigen::Isometry3d& T_camera_lidar, const SwatheOptions& options);
 
+  // Analytic gradient for B-spline metrics: the sum over the visible points
+  // that project under T_camera_lidar (in ForEachProjected's order) of
+  // dcost.SampleDerivative(x01, y01) * dy01/ddelta, where y01 is the bilinear
+  // intensity and delta the local update of ApplyTransformUpdate(T_camera_lidar,
+  // delta, update, pivot_source) at delta = 0 (core/nelder_mead.hpp):
+  //   dy01/ddelta = [dY/du dY/dv] (image gradient of the bilinear interpolant)
+  //                 * d(u, v)/dp (projection with distortion) * dp/ddelta.
+  // `dcost` must come from the histogram of the same samples. Deterministic.
+  Vector6d SampleGradientSum(const Eigen::Isometry3d& T_camera_lidar, TransformUpdate update,
+                             const Eigen::Vector3d& pivot_source, const CostGradient& dcost) const;
+
   // Number of points that project (visible ones only) under T_camera_lidar.
   std::size_t CountProjected(const Eigen::Isometry3d& T_camera_lidar) const;
+  // The same count split by scan (ScanCount() entries, in scan order), all
+  // points, visible or not: which scans of the swathe reach the image at all.
+  std::vector<std::size_t> CountProjectedPerScan(const Eigen::Isometry3d& T_camera_lidar) const;
   // Sum of the lidar-frame coordinates (metres) of those points; *count gets their number.
   Eigen::Vector3d SumProjectedLidarPoints(const Eigen::Isometry3d& T_camera_lidar, std::size_t* count) const;
 
@@ -112,21 +146,113 @@ class SceneSwathe {
   std::vector<Eigen::Isometry3d> T_camerak_cameraj_;
 };
 
+namespace swathe_detail {
+
+// Points are projected in blocks: a branch-free pass the compiler vectorises
+// (transform, projection, bounds; the same float arithmetic as ProjectFast, so
+// the same pixels), then a pass over the accepted points only that calls the
+// visitor, prefetching the image rows of a point a few places ahead (the
+// bilinear gathers, not the arithmetic, bound the cost kernel).
+constexpr int kBlock = 256;
+constexpr int kPrefetchDistance = 8;
+
+template <CameraModelKind kKind>
+inline void ProjectBlock(const ProjectionParams& params, const Eigen::Matrix<float, 3, 4>& m,
+                         const float* __restrict x, const float* __restrict y, const float* __restrict z,
+                         const std::uint8_t* __restrict visible, int count, float* __restrict u_out,
+                         float* __restrict v_out, float* __restrict depth_out, std::int32_t* __restrict accepted) {
+  const float m00 = m(0, 0), m01 = m(0, 1), m02 = m(0, 2), m03 = m(0, 3);
+  const float m10 = m(1, 0), m11 = m(1, 1), m12 = m(1, 2), m13 = m(1, 3);
+  const float m20 = m(2, 0), m21 = m(2, 1), m22 = m(2, 2), m23 = m(2, 3);
+  const float fx = params.fx, fy = params.fy, cx = params.cx, cy = params.cy;
+  const float u_min = params.u_min, u_max = params.u_max, v_min = params.v_min, v_max = params.v_max;
+  const float min_depth = params.min_depth, limit = params.monotonic_limit_squared;
+  const float k0 = params.k[0], k1 = params.k[1], k2 = params.k[2], k3 = params.k[3], k4 = params.k[4];
+  for (int k = 0; k < count; ++k) {
+    const float px = m00 * x[k] + m01 * y[k] + m02 * z[k] + m03;
+    const float py = m10 * x[k] + m11 * y[k] + m12 * z[k] + m13;
+    const float pz = m20 * x[k] + m21 * y[k] + m22 * z[k] + m23;
+    // No guard on the division: points with pz <= min_depth (inf/NaN pixels) are rejected below.
+    const float inverse_z = 1.0f / pz;
+    float xn = px * inverse_z;
+    float yn = py * inverse_z;
+    bool in_range = true;
+    if constexpr (kKind == CameraModelKind::kRadTan) {
+      const float r2 = xn * xn + yn * yn;
+      in_range = r2 < limit;
+      // camera_detail::DistortRadTan, written out so the loop stays branch-free.
+      const float radial = 1.0f + r2 * (k0 + r2 * (k1 + r2 * k4));
+      const float xy2 = 2.0f * xn * yn;
+      const float xd = xn * radial + k2 * xy2 + k3 * (r2 + 2.0f * xn * xn);
+      const float yd = yn * radial + k2 * (r2 + 2.0f * yn * yn) + k3 * xy2;
+      xn = xd;
+      yn = yd;
+    }
+    const float u = fx * xn + cx;
+    const float v = fy * yn + cy;
+    u_out[k] = u;
+    v_out[k] = v;
+    depth_out[k] = pz;
+    // Non-short-circuit & keeps the loop free of branches (vectorisable).
+    accepted[k] = (pz > min_depth) & in_range & (u >= u_min) & (u < u_max) & (v >= v_min) & (v < v_max) &
+                  (visible[k] != 0);
+  }
+}
+
+}  // namespace swathe_detail
+
 template <typename Visitor>
 void SceneSwathe::ForEachProjected(const Eigen::Isometry3d& T_camera_lidar, bool visible_only,
                                    Visitor&& visit) const {
+  using namespace swathe_detail;
+  alignas(64) float u[kBlock], v[kBlock], depth[kBlock];
+  alignas(64) std::int32_t accepted[kBlock];
+  alignas(64) std::uint8_t all_visible[kBlock];
+  std::uint16_t index[kBlock];
+  if (!visible_only) std::fill(std::begin(all_visible), std::end(all_visible), std::uint8_t{1});
+  const float* const image = image_.empty() ? nullptr : image_.ptr<float>();
+  const std::size_t stride = image_.step1();
+  const float* const reflectance01 = reflectance01_.data();
   for (std::size_t scan = 0; scan < T_camerak_cameraj_.size(); ++scan) {
     const Eigen::Matrix<float, 3, 4> m =
         (T_camerak_cameraj_[scan] * T_camera_lidar).matrix().topRows<3>().cast<float>();
     const std::size_t end = scan_begin_[scan + 1];
-    for (std::size_t i = scan_begin_[scan]; i < end; ++i) {
-      if (visible_only && !visible_[i]) continue;
-      const float px = m(0, 0) * x_[i] + m(0, 1) * y_[i] + m(0, 2) * z_[i] + m(0, 3);
-      const float py = m(1, 0) * x_[i] + m(1, 1) * y_[i] + m(1, 2) * z_[i] + m(1, 3);
-      const float pz = m(2, 0) * x_[i] + m(2, 1) * y_[i] + m(2, 2) * z_[i] + m(2, 3);
-      float u, v;
-      if (!ProjectFast(projection_, px, py, pz, &u, &v)) continue;
-      visit(i, reflectance01_[i], u, v, pz);
+    for (std::size_t begin = scan_begin_[scan]; begin < end; begin += kBlock) {
+      const int count = static_cast<int>(std::min<std::size_t>(kBlock, end - begin));
+      const std::uint8_t* visible = visible_only ? visible_.data() + begin : all_visible;
+      const float *x = x_.data() + begin, *y = y_.data() + begin, *z = z_.data() + begin;
+      switch (projection_.kind) {
+        case CameraModelKind::kPinhole:
+          ProjectBlock<CameraModelKind::kPinhole>(projection_, m, x, y, z, visible, count, u, v, depth, accepted);
+          break;
+        case CameraModelKind::kRadTan:
+          ProjectBlock<CameraModelKind::kRadTan>(projection_, m, x, y, z, visible, count, u, v, depth, accepted);
+          break;
+        case CameraModelKind::kEquidistant:  // atan per point: scalar, through the shared kernel
+          for (int k = 0; k < count; ++k) {
+            const float px = m(0, 0) * x[k] + m(0, 1) * y[k] + m(0, 2) * z[k] + m(0, 3);
+            const float py = m(1, 0) * x[k] + m(1, 1) * y[k] + m(1, 2) * z[k] + m(1, 3);
+            depth[k] = m(2, 0) * x[k] + m(2, 1) * y[k] + m(2, 2) * z[k] + m(2, 3);
+            accepted[k] = ProjectFast(projection_, px, py, depth[k], &u[k], &v[k]) && visible[k] != 0;
+          }
+          break;
+      }
+      int accepted_count = 0;
+      for (int k = 0; k < count; ++k) {
+        index[accepted_count] = static_cast<std::uint16_t>(k);
+        accepted_count += accepted[k];
+      }
+      for (int a = 0; a < accepted_count; ++a) {
+        if (a + kPrefetchDistance < accepted_count) {
+          const int ahead = index[a + kPrefetchDistance];
+          const float* row = image + static_cast<std::size_t>(v[ahead]) * stride + static_cast<std::size_t>(u[ahead]);
+          __builtin_prefetch(row);
+          __builtin_prefetch(row + stride);
+        }
+        const int k = index[a];
+        visit(begin + static_cast<std::size_t>(k), reflectance01[begin + static_cast<std::size_t>(k)], u[k], v[k],
+              depth[k]);
+      }
     }
   }
 }
