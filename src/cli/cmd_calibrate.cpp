@@ -17,7 +17,10 @@
 #include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 
+#include "cli/calibrate_alt.hpp"
 #include "cli/commands.hpp"
+#include "cli/load_input.hpp"
+#include "cli/report_writer.hpp"
 #include "core/calibrate.hpp"
 #include "core/geometry.hpp"
 #include "io/dataset.hpp"
@@ -29,7 +32,7 @@ namespace {
 struct CalibrateArguments {
   std::string dataset;
   std::string output;
-  std::string scheme = "joint";
+  std::string scheme = "alt";
   std::string metric = "nid";
   int scenes = 30;
   double swathe_length_m = 10.0;
@@ -47,12 +50,15 @@ struct CalibrateArguments {
   double step_rotation_deg = 1.0;
   int min_points = 300;
   int max_scans_per_scene = 0;
+  double swathe_trim_margin_m = 1.0;
   double min_speed_mps = 0.5;
   bool no_occlusion = false;
   std::string rotation_pivot = "origin";
   double perturb_translation_m = 0.0;
   double perturb_rotation_deg = 0.0;
   bool perturb_from_truth = false;
+  std::string report_dir;  // --report: HTML report directory; empty = none
+  AlternatingArguments alternating;  // --scheme alt
 };
 
 // Moves T by exactly translation_m and rotation_deg in random directions (base
@@ -118,7 +124,7 @@ bool ParseStages(const std::string& text, std::vector<OptimisationStage>* stages
   return !stages->empty();
 }
 
-int Run(const CalibrateArguments& args) {
+int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
   const auto start = std::chrono::steady_clock::now();
   CalibrationOptions options;
   // Arguments already checked by CLI11 validators; parse into the enums.
@@ -136,6 +142,7 @@ int Run(const CalibrateArguments& args) {
   options.scenes.swathe_length_m = args.swathe_length_m;
   ParseSwatheDirection(args.direction, &options.scenes.direction);
   options.scenes.max_scans_per_scene = args.max_scans_per_scene;
+  options.swathe_trim_margin_m = args.swathe_trim_margin_m;
   options.scenes.min_speed_mps = args.min_speed_mps;
   options.nelder_mead.max_iterations = args.max_iterations;
   options.nelder_mead.initial_step_translation_m = args.step_translation_m;
@@ -152,8 +159,9 @@ int Run(const CalibrateArguments& args) {
     spdlog::error("invalid options: {}", why);
     return kExitInvalidInput;
   }
-  if (options.scheme == CalibrationScheme::kAlt) {
-    spdlog::error("--scheme alt is not available in this build; use once or joint");
+  if (args.alternating.backend == "mpi" && options.scheme != CalibrationScheme::kAlt) {
+    spdlog::error("--backend mpi distributes the lower levels of --scheme alt; it does not apply to --scheme {}",
+                  args.scheme);
     return kExitInvalidInput;
   }
   std::optional<tbb::global_control> thread_limit;
@@ -164,13 +172,6 @@ int Run(const CalibrateArguments& args) {
   spdlog::info("opening {}", args.dataset);
   const io::Dataset dataset = io::OpenDataset(args.dataset);
 
-  std::map<std::string, std::vector<TimeUs>> image_times, scan_times;
-  for (const auto& [camera, files] : dataset.images) {
-    for (const io::SensorFile& f : files) image_times[camera].push_back(f.t_us);
-  }
-  for (const auto& [lidar, files] : dataset.scans) {
-    for (const io::SensorFile& f : files) scan_times[lidar].push_back(f.t_us);
-  }
   CalibrationInput input;
   input.rig = dataset.rig;
   if (args.perturb_from_truth && !dataset.ground_truth) {
@@ -195,48 +196,22 @@ int Run(const CalibrateArguments& args) {
                    args.perturb_rotation_deg, args.seed);
     }
   }
-  input.selection = SelectScenes(dataset.rig, dataset.trajectory, image_times, scan_times, options.scenes);
-  std::istringstream report(input.selection.Report());
-  for (std::string line; std::getline(report, line);) spdlog::info("{}", line);
-
-  // Load only what the scenes use, in parallel.
-  std::vector<std::pair<std::string, const io::SensorFile*>> image_files, scan_files;
-  {
-    std::set<std::pair<std::string, TimeUs>> images_needed, scans_needed;
-    for (const Scene& scene : input.selection.scenes) {
-      images_needed.insert({scene.camera, scene.image_t_us});
-      for (const SwatheScan& scan : scene.scans) scans_needed.insert({scene.lidar, scan.t_us});
-    }
-    const auto find = [](const std::vector<io::SensorFile>& files, TimeUs t) {
-      const auto it = std::lower_bound(files.begin(), files.end(), t,
-                                       [](const io::SensorFile& f, TimeUs time) { return f.t_us < time; });
-      return it != files.end() && it->t_us == t ? &*it : nullptr;
-    };
-    for (const auto& [camera, t] : images_needed) image_files.push_back({camera, find(dataset.images.at(camera), t)});
-    for (const auto& [lidar, t] : scans_needed) scan_files.push_back({lidar, find(dataset.scans.at(lidar), t)});
-  }
-  spdlog::info("loading {} images and {} scans", image_files.size(), scan_files.size());
-  std::vector<GreyImage> images(image_files.size());
-  std::vector<LidarScan> scans(scan_files.size());
-  tbb::parallel_for(std::size_t{0}, image_files.size(), [&](std::size_t i) {
-    images[i] = io::ReadImage(*image_files[i].second, dataset.rig.FindCamera(image_files[i].first)->model);
-  });
-  tbb::parallel_for(std::size_t{0}, scan_files.size(), [&](std::size_t i) { scans[i] = io::ReadScan(*scan_files[i].second); });
-  for (std::size_t i = 0; i < images.size(); ++i) {
-    input.images[image_files[i].first][image_files[i].second->t_us] = std::move(images[i]);
-  }
-  std::size_t points = 0;
-  for (std::size_t i = 0; i < scans.size(); ++i) {
-    points += scans[i].points.size();
-    input.scans[scan_files[i].first][scan_files[i].second->t_us] = std::move(scans[i]);
-  }
+  const LoadedScenes loaded = SelectAndLoadScenes(dataset, options.scenes, &input);
   const double load_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  spdlog::info("loaded {} lidar points in {:.2f} s", points, load_s);
+  spdlog::info("loaded {} lidar points in {:.2f} s", loaded.lidar_points, load_s);
 
   spdlog::info("calibrating: scheme {}, metric {}, {} bins {}, reflectance {}, stages {}, up to {} iterations a run",
                args.scheme, args.metric, args.bins, args.binning, args.normalise_reflectance, args.stages,
                args.max_iterations);
-  CalibrationOutcome outcome = Calibrate(input, options, [](const std::string& message) { spdlog::info("{}", message); });
+  CalibrationOutcome outcome;
+  std::optional<AlternatingRun> alternating_run;
+  if (options.scheme == CalibrationScheme::kAlt) {
+    alternating_run = RunAlternating(input, options, args.alternating, group);
+    if (alternating_run->wrote_nothing) return kExitSuccess;  // a serving MPI rank; rank 0 writes
+    outcome = alternating_run->outcome;
+  } else {
+    outcome = Calibrate(input, options, [](const std::string& message) { spdlog::info("{}", message); });
+  }
   if (outcome.status == CalibrationStatus::kInvalidOptions) {
     spdlog::error("{}", outcome.why);
     return kExitInvalidInput;
@@ -266,8 +241,19 @@ int Run(const CalibrateArguments& args) {
   }
   result.timings_s["total"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   for (const std::string& warning : result.warnings) spdlog::warn("{}", warning);
-  io::WriteCalibrationResult(args.output, result);
+  if (alternating_run) {
+    // The per-alternation history (lower and upper solutions per pair) for the paper's Fig. 4 and 6.
+    YAML::Node extra;
+    extra["history"] = HistoryYaml(alternating_run->details, alternating_run->problem);
+    io::WriteCalibrationResult(args.output, result, extra);
+  } else {
+    io::WriteCalibrationResult(args.output, result);
+  }
   spdlog::info("wrote {} ({})", args.output, result.termination);
+  if (!args.report_dir.empty()) {
+    WriteCalibrationReport(args.report_dir, input, options, outcome, alternating_run ? &*alternating_run : nullptr,
+                           dataset);
+  }
 
   if (dataset.ground_truth) {
     const GroundTruth& truth = *dataset.ground_truth;
@@ -294,6 +280,28 @@ int Run(const CalibrateArguments& args) {
   return kExitSuccess;
 }
 
+// MPI starts before any data is read (every rank loads the same inputs). A
+// rank that fails ends every rank at once: the others would otherwise wait in
+// a collective for it forever.
+int Run(const CalibrateArguments& args) {
+  ProcessGroup group(args.scheme == "alt" ? args.alternating.backend : "threads");
+  if (!group.distributed()) return RunCalibration(args, group);
+  if (!group.IsRoot()) spdlog::set_level(spdlog::level::warn);
+  int exit_code = kExitFailure;
+  try {
+    exit_code = RunCalibration(args, group);
+  } catch (const io::InputError& e) {
+    spdlog::error("rank {}: {}", group.rank(), e.what());
+    group.AbortAll(kExitInvalidInput);
+  } catch (const std::exception& e) {
+    spdlog::error("rank {}: {}", group.rank(), e.what());
+    group.AbortAll(kExitFailure);
+  }
+  // A rank that stops with an error before the others reach a collective ends them too.
+  if (exit_code != kExitSuccess) group.AbortAll(exit_code);
+  return exit_code;
+}
+
 }  // namespace
 
 CommandRunner AddCalibrateCommand(CLI::App& app) {
@@ -305,8 +313,10 @@ CommandRunner AddCalibrateCommand(CLI::App& app) {
   command->add_option("dataset", args->dataset, "Dataset folder (FORMAT.md)")->required()->check(CLI::ExistingDirectory);
   command->add_option("-o,--output", args->output, "Result file (YAML, written atomically)")->required();
   command->add_option("--scheme", args->scheme,
-                      "once: each camera/lidar pair alone; joint: one problem per lidar over T_base_lidar, the "
-                      "cost summed over all cameras through the known camera transforms")
+                      "alt: the paper's alternating optimisation (a lower-level optimiser per camera/lidar pair, an "
+                      "upper-level least squares through the known camera transforms, quadratic penalties with a "
+                      "shrinking covariance); once: each camera/lidar pair alone; joint: one problem per lidar over "
+                      "T_base_lidar, the cost summed over all cameras through the known camera transforms")
       ->check(CLI::IsMember({"once", "joint", "alt"}))
       ->capture_default_str();
   command->add_option("--metric", args->metric, "nid (normalised information distance) or mi (mutual information)")
@@ -382,6 +392,10 @@ CommandRunner AddCalibrateCommand(CLI::App& app) {
                       "Cap on scans per swathe (evenly thinned); 0 = no cap")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
+  command->add_option("--swathe-trim", args->swathe_trim_margin_m,
+                      "Keep only the scans of a swathe whose points reach the image at the initial guess, plus this "
+                      "margin (metres of travel) either side; negative keeps every scan of the window")
+      ->capture_default_str();
   command->add_option("--min-speed", args->min_speed_mps, "Frames taken below this speed (m/s) are skipped")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
@@ -393,6 +407,44 @@ CommandRunner AddCalibrateCommand(CLI::App& app) {
                       "Point the simplex rotates the lidar about: origin (the lidar's origin) or centroid (the "
                       "centroid of the lidar points seen at the initial guess)")
       ->check(CLI::IsMember({"origin", "centroid"}))
+      ->capture_default_str();
+  command->add_option("--report", args->report_dir,
+                      "Write an HTML report with convergence, cost slices and overlays into this directory "
+                      "(report.html and PNGs)");
+  AlternatingArguments& alt = args->alternating;
+  command->add_option("--backend", alt.backend,
+                      "Where the lower levels of --scheme alt run: threads (this process) or mpi (the ranks of "
+                      "mpirun; every rank reads the dataset, rank 0 writes the result)")
+      ->check(CLI::IsMember({"threads", "mpi"}))
+      ->capture_default_str();
+  command->add_option("--alternations", alt.alternations, "alt: maximum number of alternations (the paper: 20)")
+      ->check(CLI::Range(1, 10000))
+      ->capture_default_str();
+  command->add_option("--shrink", alt.shrink, "alt: covariance factor w of the penalty, P(i+1) = w P(i), in (0, 1)")
+      ->check(CLI::Range(1e-6, 0.999999))
+      ->capture_default_str();
+  command->add_option("--sigma0-translation", alt.sigma0_translation_m,
+                      "alt: initial penalty sigma, metres (the paper: 5)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  command->add_option("--sigma0-rotation", alt.sigma0_rotation_rad, "alt: initial penalty sigma, radians (the paper: 5)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  command->add_option("--stop-translation", alt.stop_translation_m,
+                      "alt: stop early once both levels move, and disagree, by less than this many metres (and "
+                      "--stop-rotation)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  command->add_option("--stop-rotation", alt.stop_rotation_deg, "alt: the rotation threshold of the early stop, degrees")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  command->add_option("--camera-sigma-translation", alt.camera_sigma_translation_m,
+                      "alt: 1-sigma of known camera transforms that rig.yaml gives no T_base_camera_sigma for, metres")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  command->add_option("--camera-sigma-rotation", alt.camera_sigma_rotation_deg,
+                      "alt: the same for rotation, degrees")
+      ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   return [args] { return Run(*args); };
 }

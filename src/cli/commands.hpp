@@ -19,5 +19,6 @@ CommandRunner AddSimulateCommand(CLI::App& app);
 CommandRunner AddInspectCommand(CLI::App& app);
 CommandRunner AddImportCommand(CLI::App& app);
 CommandRunner AddCalibrateCommand(CLI::App& app);
+CommandRunner AddExperimentCommand(CLI::App& app);
 
 }  // namespace scenecal::cli

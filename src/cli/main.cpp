@@ -37,6 +37,7 @@ int main(int argc, char** argv) {
   add(AddInspectCommand(app));
   add(AddImportCommand(app));
   add(AddCalibrateCommand(app));
+  add(AddExperimentCommand(app));
 
   try {
     app.parse(argc, argv);

@@ -16,6 +16,7 @@ bool AlternatingOptions::IsValid(std::string* why) const {
     return false;
   };
   if (max_alternations < 1) return fail("max_alternations must be at least 1");
+  if (min_alternations < 1) return fail("min_alternations must be at least 1");
   if (!(initial_sigma_translation_m > 0) || !(initial_sigma_rotation_rad > 0))
     return fail("initial penalty sigmas must be positive");
   if (!(covariance_shrink > 0 && covariance_shrink < 1)) return fail("covariance_shrink w must be in (0, 1)");
@@ -228,7 +229,7 @@ AlternatingResult SolveAlternating(const AlternatingProblem& problem, const Alte
                          change.rotation_rad <= options.stop_rotation_rad &&
                          disagreement.translation_m <= options.stop_translation_m &&
                          disagreement.rotation_rad <= options.stop_rotation_rad;
-    if (alternation > 0 && settled) {
+    if (alternation > 0 && alternation + 1 >= options.min_alternations && settled) {
       result.termination = "converged after " + std::to_string(alternation + 1) +
                            " alternations: both levels moved and disagree less than the stop thresholds";
       break;

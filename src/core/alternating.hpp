@@ -34,6 +34,9 @@ struct AlternatingOptions {
   // and every lower solution agrees with its upper one within them.
   double stop_translation_m = 2e-4;
   double stop_rotation_rad = 2e-5;
+  // No early stop before this many alternations (e.g. until a coarse-to-fine
+  // schedule has reached its sharpest stage).
+  int min_alternations = 1;
   // Simplex search of the lower level (the paper: 200 iterations). Its initial
   // steps are capped by the current penalty sigma, so later alternations
   // search a neighbourhood of the size the penalty allows.

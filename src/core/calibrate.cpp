@@ -1,8 +1,11 @@
 #include "core/calibrate.hpp"
 
+#include "core/calibrate_alternating.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <sstream>
 
@@ -68,6 +71,7 @@ bool CalibrationOptions::IsValid(std::string* why) const {
   }
   if (!(restart_min_improvement >= 0.0)) return fail("restart_min_improvement must be >= 0");
   if (threads < 0) return fail("threads must be 0 (all) or positive");
+  if (!std::isfinite(swathe_trim_margin_m)) return fail("swathe_trim_margin_m must be a finite number of metres");
   if (!(time_budget_s >= 0.0) || !std::isfinite(time_budget_s)) return fail("time_budget_s must be >= 0 seconds");
   if (!(agreement_warning_translation_m > 0.0) || !(agreement_warning_rotation_deg > 0.0))
     return fail("agreement warning thresholds must be positive");
@@ -98,6 +102,7 @@ PairCost BuildPairCost(const CalibrationInput& input, const CameraInfo& camera, 
   }
   const auto images_it = input.images.find(camera.name);
   const auto scans_it = input.scans.find(lidar);
+  const LidarInfo* lidar_info = input.rig.FindLidar(lidar);  // its T_base_lidar is the initial guess
   std::vector<SceneSwathe> swathes(scenes.size());
   std::vector<char> complete(scenes.size(), 0);
   tbb::parallel_for(std::size_t{0}, scenes.size(), [&](std::size_t s) {
@@ -114,6 +119,30 @@ PairCost BuildPairCost(const CalibrationInput& input, const CameraInfo& camera, 
     swathes[s] = SceneSwathe::Build(scene, camera, image->second.intensity, scans, options.cost.swathe,
                                     options.normalisation);
     complete[s] = 1;
+    if (options.swathe_trim_margin_m < 0.0 || lidar_info == nullptr) return;
+    const std::vector<std::size_t> per_scan =
+        swathes[s].CountProjectedPerScan(camera.T_base_camera.inverse() * lidar_info->T_base_lidar);
+    double first_m = std::numeric_limits<double>::infinity(), last_m = -first_m;
+    for (std::size_t j = 0; j < per_scan.size(); ++j) {
+      if (per_scan[j] == 0) continue;
+      const double travel_m = scene.scans[j].T_basek_basej.translation().norm();
+      first_m = std::min(first_m, travel_m);
+      last_m = std::max(last_m, travel_m);
+    }
+    if (!(first_m <= last_m)) return;  // nothing projects at the initial guess: keep the scene whole
+    Scene trimmed = scene;
+    trimmed.scans.clear();
+    std::vector<const LidarScan*> kept_scans;
+    for (std::size_t j = 0; j < scene.scans.size(); ++j) {
+      const double travel_m = scene.scans[j].T_basek_basej.translation().norm();
+      if (travel_m < first_m - options.swathe_trim_margin_m || travel_m > last_m + options.swathe_trim_margin_m)
+        continue;
+      trimmed.scans.push_back(scene.scans[j]);
+      kept_scans.push_back(scans[j]);
+    }
+    if (trimmed.scans.size() == scene.scans.size()) return;
+    swathes[s] = SceneSwathe::Build(trimmed, camera, image->second.intensity, kept_scans, options.cost.swathe,
+                                    options.normalisation);
   });
   std::vector<SceneSwathe> kept;
   for (std::size_t s = 0; s < swathes.size(); ++s) {
@@ -219,7 +248,7 @@ CalibrationOutcome Calibrate(const CalibrationInput& input, const CalibrationOpt
   std::string why;
   if (!options.IsValid(&why)) return cannot(CalibrationStatus::kInvalidOptions, "invalid options: " + why);
   if (options.scheme == CalibrationScheme::kAlt) {
-    return cannot(CalibrationStatus::kInvalidOptions, "scheme alt is not available in this build");
+    return CalibrateAlternating(input, options, DefaultAlternatingOptions(options), progress);
   }
   if (input.rig.cameras.empty() || input.rig.lidars.empty()) {
     return cannot(CalibrationStatus::kCannotCalibrate, "the rig needs at least one camera and one lidar");
@@ -244,6 +273,7 @@ CalibrationOutcome Calibrate(const CalibrationInput& input, const CalibrationOpt
   result.settings["scenes_per_camera"] = std::to_string(options.scenes.scenes_per_camera);
   result.settings["swathe_length_m"] = FormatNumber(options.scenes.swathe_length_m);
   result.settings["direction"] = SwatheDirectionName(options.scenes.direction);
+  result.settings["swathe_trim_margin_m"] = FormatNumber(options.swathe_trim_margin_m);
   result.settings["min_points_per_scene"] = std::to_string(options.cost.min_points_per_scene);
   result.settings["rotation_pivot"] = options.pivot_at_observed_centroid ? "observed centroid" : "lidar origin";
   result.settings["occlusion"] = options.cost.swathe.occlusion ? "zbuffer" : "off";

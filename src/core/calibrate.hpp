@@ -73,6 +73,14 @@ struct CalibrationOptions {
   // better than a diagonal valley. Off by default: on the simulated RobotCar
   // data it did not improve the accuracy (4 perturbed starts, mixed results).
   bool pivot_at_observed_centroid = false;
+  // Swathe trimming (metres of travel; negative = keep every scan). A scan
+  // only counts when its points land in the image; for a rear push-broom
+  // lidar and a forward camera that starts ~6 m after the image, so most of a
+  // window that starts at the image carries nothing. Each scene keeps the
+  // scans whose travel from the image (|T_basek_basej| translation) lies
+  // within this margin of the first and last scan with points projecting at
+  // the initial guess; the margin covers the initial guess's error.
+  double swathe_trim_margin_m = 1.0;
 
   bool IsValid(std::string* why = nullptr) const;
 };

@@ -1,0 +1,526 @@
+// `scenecal experiment --preset P --output DIR [...]`: the paper's protocol
+// (section IV, Fig. 7 and 8). Simulates a dataset (or takes --dataset), loads
+// the scenes once, draws --guesses initial guesses (the truth moved by exactly
+// the given magnitudes in random directions from --seed; every scheme and
+// metric starts from the same guesses), calibrates with every scheme x metric
+// from every guess, and writes DIR/runs.csv and DIR/report.html.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <map>
+#include <optional>
+#include <random>
+#include <regex>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+#include <tbb/global_control.h>
+
+#include "cli/calibrate_alt.hpp"
+#include "cli/commands.hpp"
+#include "cli/load_input.hpp"
+#include "core/calibrate.hpp"
+#include "core/calibrate_alternating.hpp"
+#include "core/geometry.hpp"
+#include "io/dataset.hpp"
+#include "io/error.hpp"
+#include "report/html_report.hpp"
+#include "sim/simulator.hpp"
+
+namespace scenecal::cli {
+
+namespace {
+
+struct ExperimentArguments {
+  std::string preset = "robotcar";
+  std::string dataset;  // empty: simulate into OUTPUT/dataset
+  std::string output;
+  std::uint64_t seed = 1;
+  int guesses = 5;
+  double perturb_translation_m = 0.1;
+  double perturb_rotation_deg = 3.0;
+  std::vector<std::string> schemes = {"once", "joint", "alt"};
+  std::vector<std::string> metrics = {"nid", "mi"};
+  int scenes = 30;
+  int alternations = 20;
+  int threads = 0;
+  std::string image_size;     // WxH; empty: the simulator's default
+  double distance_m = 380.0;  // simulated drive length
+  int max_iterations = 200;
+  std::string stages = "1:0.004:2,0.3:0.0015:1,0.1:0:1";
+  double swathe_length_m = 10.0;
+  int overlay_scenes = 1;
+  bool force = false;
+};
+
+// Everything recorded of one calibration for one lidar.
+struct RunRecord {
+  int guess = 0;
+  std::string scheme;
+  std::string metric;
+  std::string lidar;
+  bool success = false;
+  std::string termination;
+  Eigen::Isometry3d T_base_lidar_initial = Eigen::Isometry3d::Identity();
+  Eigen::Isometry3d T_base_lidar = Eigen::Isometry3d::Identity();
+  Eigen::Isometry3d T_base_lidar_truth = Eigen::Isometry3d::Identity();
+  double initial_cost = std::numeric_limits<double>::quiet_NaN();  // mean over the lidar's pairs
+  double final_cost = std::numeric_limits<double>::quiet_NaN();
+  int evaluations = 0;
+  double seconds = 0.0;
+};
+
+std::string Method(const std::string& scheme, const std::string& metric) { return scheme + "-" + metric; }
+
+std::string FormatDuration(double seconds) {
+  if (!std::isfinite(seconds) || seconds < 0) return "?";
+  const long long s = std::llround(seconds);
+  return s >= 3600 ? fmt::format("{}:{:02}:{:02}", s / 3600, (s / 60) % 60, s % 60)
+                   : fmt::format("{}:{:02}", s / 60, s % 60);
+}
+
+// CSV field: quoted when it holds a separator, quote or line break.
+std::string CsvField(const std::string& text) {
+  if (text.find_first_of(",\"\n\r") == std::string::npos) return text;
+  std::string quoted = "\"";
+  for (char c : text) {
+    if (c == '"') quoted += '"';
+    quoted += c;
+  }
+  return quoted + "\"";
+}
+
+std::string Number(double value, int precision = 6) {
+  return std::isfinite(value) ? fmt::format("{:.{}g}", value, precision) : "nan";
+}
+
+// One row per run and lidar. Errors: total translation (m) and rotation (deg);
+// per axis in the 6-tuple (tuple(estimate) - tuple(truth): x, y, z m; roll,
+// pitch, yaw deg, as the report's Fig. 8); and the translation error
+// t_est - t_gt (m) and rotation error R_est * R_gt^T as a rotation vector
+// (deg), both in the base frame (the base camera: x right, y down, z forward).
+std::string RunsCsv(const std::vector<RunRecord>& runs) {
+  std::string csv =
+      "guess,scheme,metric,method,lidar,success,translation_error_m,rotation_error_deg,"
+      "error_x_m,error_y_m,error_z_m,error_roll_deg,error_pitch_deg,error_yaw_deg,"
+      "base_dx_m,base_dy_m,base_dz_m,base_rx_deg,base_ry_deg,base_rz_deg,"
+      "initial_translation_error_m,initial_rotation_error_deg,initial_cost,cost,evaluations,seconds,termination\n";
+  for (const RunRecord& run : runs) {
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    Vector6d tuple_error = Vector6d::Constant(nan);
+    Eigen::Vector3d base_dt = Eigen::Vector3d::Constant(nan), base_dr = Eigen::Vector3d::Constant(nan);
+    double translation = nan, rotation = nan;
+    if (run.success) {
+      tuple_error = report::TupleError(run.T_base_lidar, run.T_base_lidar_truth);
+      base_dt = run.T_base_lidar.translation() - run.T_base_lidar_truth.translation();
+      base_dr = LogSO3(run.T_base_lidar.linear() * run.T_base_lidar_truth.linear().transpose()) * 180.0 / kPi;
+      translation = TranslationError(run.T_base_lidar, run.T_base_lidar_truth);
+      rotation = RotationErrorDegrees(run.T_base_lidar, run.T_base_lidar_truth);
+    }
+    std::vector<std::string> fields = {std::to_string(run.guess), run.scheme, run.metric,
+                                       Method(run.scheme, run.metric), CsvField(run.lidar),
+                                       run.success ? "1" : "0", Number(translation), Number(rotation)};
+    for (int k = 0; k < 6; ++k) fields.push_back(Number(k < 3 ? tuple_error[k] : tuple_error[k] * 180.0 / kPi));
+    for (int k = 0; k < 3; ++k) fields.push_back(Number(base_dt[k]));
+    for (int k = 0; k < 3; ++k) fields.push_back(Number(base_dr[k]));
+    fields.push_back(Number(TranslationError(run.T_base_lidar_initial, run.T_base_lidar_truth)));
+    fields.push_back(Number(RotationErrorDegrees(run.T_base_lidar_initial, run.T_base_lidar_truth)));
+    fields.push_back(Number(run.initial_cost, 8));
+    fields.push_back(Number(run.final_cost, 8));
+    fields.push_back(std::to_string(run.evaluations));
+    fields.push_back(fmt::format("{:.2f}", run.seconds));
+    fields.push_back(CsvField(run.termination));
+    for (std::size_t i = 0; i < fields.size(); ++i) csv += (i == 0 ? "" : ",") + fields[i];
+    csv += "\n";
+  }
+  return csv;
+}
+
+// Checks the comma lists and option combinations; the reason in *why.
+bool CheckArguments(const ExperimentArguments& args, std::string* why) {
+  const auto unique = [](std::vector<std::string> v) {
+    std::sort(v.begin(), v.end());
+    return std::adjacent_find(v.begin(), v.end()) == v.end();
+  };
+  if (args.schemes.empty() || !unique(args.schemes)) {
+    *why = "--schemes: give each of once, joint, alt at most once";
+    return false;
+  }
+  if (args.metrics.empty() || !unique(args.metrics)) {
+    *why = "--metrics: give each of nid, mi at most once";
+    return false;
+  }
+  return true;
+}
+
+int RunExperiment(const ExperimentArguments& args) {
+  const auto start = std::chrono::steady_clock::now();
+  const auto elapsed_s = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
+  std::string why;
+  if (!CheckArguments(args, &why)) {
+    spdlog::error("{}", why);
+    return kExitInvalidInput;
+  }
+  CalibrationOptions options;
+  options.scenes.scenes_per_camera = args.scenes;
+  options.scenes.swathe_length_m = args.swathe_length_m;
+  options.nelder_mead.max_iterations = args.max_iterations;
+  options.nelder_mead.initial_step_translation_m = 0.05;
+  options.nelder_mead.initial_step_rotation_rad = RadiansFromDegrees(1.0);
+  options.threads = args.threads;
+  options.seed = args.seed;
+  if (!ParseStageSchedule(args.stages, &options.stages)) {
+    spdlog::error("--stages: expected comma-separated SCALE[:BLUR[:RESTARTS]] entries, got '{}'", args.stages);
+    return kExitInvalidInput;
+  }
+  if (!options.IsValid(&why)) {
+    spdlog::error("invalid options: {}", why);
+    return kExitInvalidInput;
+  }
+  AlternatingArguments alternating_arguments;
+  alternating_arguments.alternations = args.alternations;
+  if (!MakeAlternatingOptions(options, alternating_arguments).IsValid(&why)) {
+    spdlog::error("invalid alt options: {}", why);
+    return kExitInvalidInput;
+  }
+  std::optional<tbb::global_control> thread_limit;
+  if (args.threads > 0) {
+    thread_limit.emplace(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(args.threads));
+  }
+
+  // The dataset: given, or simulated into OUTPUT/dataset.
+  const std::filesystem::path output(args.output);
+  std::error_code created;
+  std::filesystem::create_directories(output, created);
+  if (created) {
+    spdlog::error("--output {}: cannot create the directory: {}", args.output, created.message());
+    return kExitInvalidInput;
+  }
+  std::string dataset_path = args.dataset;
+  std::map<std::string, std::string> settings;
+  if (dataset_path.empty()) {
+    sim::SimulationOptions simulation;
+    sim::ParsePreset(args.preset, &simulation.preset);
+    simulation.seed = args.seed;
+    simulation.distance_m = args.distance_m;
+    simulation.overwrite = args.force;
+    if (!args.image_size.empty()) {
+      std::smatch match;
+      const std::regex pattern(R"(^(\d{1,5})[xX](\d{1,5})$)");
+      if (!std::regex_match(args.image_size, match, pattern)) {
+        spdlog::error("--image-size: expected WxH (e.g. 640x480), got '{}'", args.image_size);
+        return kExitInvalidInput;
+      }
+      simulation.image_width = std::stoi(match[1]);
+      simulation.image_height = std::stoi(match[2]);
+    }
+    if (!simulation.IsValid(&why)) {
+      spdlog::error("simulation: {}", why);
+      return kExitInvalidInput;
+    }
+    dataset_path = (output / "dataset").string();
+    spdlog::info("simulating preset {} (seed {}, {} m, {}x{}) into {}", args.preset, args.seed, args.distance_m,
+                 simulation.image_width, simulation.image_height, dataset_path);
+    int last_percent = -10;
+    const sim::SimulationSummary summary =
+        sim::Simulate(simulation, dataset_path, [&](double fraction, const std::string& message) {
+          const int percent = static_cast<int>(100.0 * fraction);
+          if (percent >= last_percent + 10) {
+            last_percent = percent;
+            spdlog::info("simulate: {:3d}% {}", percent, message);
+          }
+        });
+    spdlog::info("{}", summary.BriefReport());
+    settings["simulation"] = fmt::format("preset {}, seed {}, {} m, {}x{}", args.preset, args.seed, args.distance_m,
+                                         simulation.image_width, simulation.image_height);
+  } else if (!args.image_size.empty()) {
+    spdlog::warn("--image-size applies to the simulation only; ignored with --dataset");
+  }
+
+  const io::Dataset dataset = io::OpenDataset(dataset_path);
+  if (!dataset.ground_truth) {
+    spdlog::error("{}: the experiment compares with the truth and needs ground_truth.yaml", dataset_path);
+    return kExitInvalidInput;
+  }
+  const GroundTruth& truth = *dataset.ground_truth;
+  for (const LidarInfo& lidar : dataset.rig.lidars) {
+    if (truth.T_base_lidar.find(lidar.name) == truth.T_base_lidar.end()) {
+      spdlog::error("{}: ground_truth.yaml has no T_base_lidar for lidar {}", dataset_path, lidar.name);
+      return kExitInvalidInput;
+    }
+  }
+
+  CalibrationInput input;
+  input.rig = dataset.rig;
+  const LoadedScenes loaded = SelectAndLoadScenes(dataset, options.scenes, &input);
+  spdlog::info("loaded {} images, {} scans, {} lidar points in {:.1f} s", loaded.images, loaded.scans,
+               loaded.lidar_points, elapsed_s());
+
+  // The guesses, per lidar: the truth moved by exactly the given magnitudes.
+  std::mt19937_64 rng(args.seed);
+  std::vector<std::map<std::string, Eigen::Isometry3d>> guesses(static_cast<std::size_t>(args.guesses));
+  for (auto& guess : guesses) {
+    for (const LidarInfo& lidar : dataset.rig.lidars) {
+      guess[lidar.name] =
+          PerturbExactly(truth.T_base_lidar.at(lidar.name), args.perturb_translation_m, args.perturb_rotation_deg, rng);
+    }
+  }
+  const auto set_guess = [&](int g) {
+    for (LidarInfo& lidar : input.rig.lidars) lidar.T_base_lidar = guesses[static_cast<std::size_t>(g)].at(lidar.name);
+  };
+
+  const int total = args.guesses * static_cast<int>(args.schemes.size() * args.metrics.size());
+  spdlog::info("{} runs: {} guesses x schemes {} x metrics {}; guesses {} m, {} deg from the truth (seed {})", total,
+               args.guesses, fmt::join(args.schemes, ","), fmt::join(args.metrics, ","), args.perturb_translation_m,
+               args.perturb_rotation_deg, args.seed);
+  std::vector<RunRecord> runs;
+  std::map<std::string, std::map<std::string, Eigen::Isometry3d>> first_guess_results;  // method -> lidar -> result
+  int done = 0;
+  const double calibration_start_s = elapsed_s();
+  for (int g = 0; g < args.guesses; ++g) {
+    set_guess(g);
+    for (const std::string& scheme : args.schemes) {
+      for (const std::string& metric : args.metrics) {
+        CalibrationOptions run_options = options;
+        ParseCalibrationScheme(scheme, &run_options.scheme);
+        run_options.cost.metric = *ParseMetricKind(metric);
+        const auto run_start = std::chrono::steady_clock::now();
+        const auto log_progress = [](const std::string& message) { spdlog::debug("{}", message); };
+        CalibrationOutcome outcome;
+        AlternatingResult details;
+        if (run_options.scheme == CalibrationScheme::kAlt) {
+          AlternatingProblem problem;
+          outcome = CalibrateAlternating(input, run_options, MakeAlternatingOptions(run_options, alternating_arguments),
+                                         log_progress, &details, &problem);
+        } else {
+          outcome = Calibrate(input, run_options, log_progress);
+        }
+        const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - run_start).count();
+        int evaluations = 0;
+        for (const OptimisationReport& optimisation : outcome.optimisations) evaluations += optimisation.evaluations;
+        if (evaluations == 0) evaluations = details.total_evaluations;
+        std::string summary;
+        for (const LidarInfo& lidar : input.rig.lidars) {
+          RunRecord run;
+          run.guess = g;
+          run.scheme = scheme;
+          run.metric = metric;
+          run.lidar = lidar.name;
+          run.T_base_lidar_initial = lidar.T_base_lidar;
+          run.T_base_lidar_truth = truth.T_base_lidar.at(lidar.name);
+          run.evaluations = evaluations;
+          run.seconds = seconds;
+          run.termination = outcome.status == CalibrationStatus::kSuccess ? outcome.result.termination : outcome.why;
+          for (const LidarCalibration& result : outcome.result.lidars) {
+            if (result.lidar == lidar.name && outcome.status == CalibrationStatus::kSuccess) {
+              run.success = true;
+              run.T_base_lidar = result.T_base_lidar;
+            }
+          }
+          double initial_sum = 0, final_sum = 0;
+          int pairs = 0;
+          for (const PairReport& pair : outcome.pairs) {
+            if (pair.lidar != lidar.name) continue;
+            initial_sum += pair.initial_cost;
+            final_sum += pair.final_cost;
+            ++pairs;
+          }
+          if (pairs > 0) {
+            run.initial_cost = initial_sum / pairs;
+            run.final_cost = final_sum / pairs;
+          }
+          if (run.success) {
+            if (g == 0) first_guess_results[Method(scheme, metric)][lidar.name] = run.T_base_lidar;
+            summary += fmt::format(" {}: {:.2f} cm, {:.3f} deg;", lidar.name,
+                                   100.0 * TranslationError(run.T_base_lidar, run.T_base_lidar_truth),
+                                   RotationErrorDegrees(run.T_base_lidar, run.T_base_lidar_truth));
+          } else {
+            summary += fmt::format(" {}: failed ({});", lidar.name, run.termination);
+          }
+          runs.push_back(std::move(run));
+        }
+        ++done;
+        const double spent_s = elapsed_s() - calibration_start_s;
+        spdlog::log(outcome.status == CalibrationStatus::kSuccess ? spdlog::level::info : spdlog::level::warn,
+                    "[{}/{}] guess {} {}:{} ({:.1f} s) | elapsed {}, about {} left", done, total, g + 1,
+                    Method(scheme, metric), summary, seconds, FormatDuration(elapsed_s()),
+                    FormatDuration(spent_s / done * (total - done)));
+        // Written after every run, so an interrupted experiment keeps what it measured.
+        io::WriteFileAtomically((output / "runs.csv").string(), RunsCsv(runs));
+      }
+    }
+  }
+
+  // The report: Fig. 7 box plots, Fig. 8 per-DoF errors, the runs, overlays.
+  report::ExperimentReportData data;
+  data.title = fmt::format("scenecal experiment: {} guesses x {} schemes x {} metrics", args.guesses,
+                           args.schemes.size(), args.metrics.size());
+  data.description = fmt::format(
+      "Dataset {}. Each initial guess is the true T_base_lidar moved by exactly {} m and {} deg in random "
+      "directions (seed {}); every scheme and metric starts from the same {} guesses. Errors are those of the "
+      "calibrated T_base_lidar against ground_truth.yaml.",
+      dataset_path, args.perturb_translation_m, args.perturb_rotation_deg, args.seed, args.guesses);
+  for (const std::string& scheme : args.schemes) {
+    for (const std::string& metric : args.metrics) {
+      data.methods.push_back(Method(scheme, metric));
+      if (scheme == "alt") data.per_dof_methods.push_back(Method(scheme, metric));
+    }
+  }
+  for (const RunRecord& run : runs) {
+    report::ExperimentRun row = report::MakeExperimentRun(Method(run.scheme, run.metric), run.lidar, run.guess,
+                                                          run.success ? run.T_base_lidar : run.T_base_lidar_initial,
+                                                          run.T_base_lidar_truth, run.seconds, run.success,
+                                                          run.termination);
+    data.runs.push_back(row);
+  }
+  data.settings = settings;
+  data.settings["dataset"] = dataset_path;
+  data.settings["guesses"] = fmt::format("{} ({} m, {} deg from the truth, seed {})", args.guesses,
+                                         args.perturb_translation_m, args.perturb_rotation_deg, args.seed);
+  data.settings["schemes"] = fmt::format("{}", fmt::join(args.schemes, ", "));
+  data.settings["metrics"] = fmt::format("{}", fmt::join(args.metrics, ", "));
+  data.settings["scenes per camera"] = std::to_string(args.scenes);
+  data.settings["swathe length"] = fmt::format("{} m", args.swathe_length_m);
+  data.settings["alternations (alt)"] = std::to_string(args.alternations);
+  data.settings["Nelder-Mead iterations per stage"] = std::to_string(args.max_iterations);
+  data.settings["stages"] = args.stages;
+  data.settings["wall time"] = FormatDuration(elapsed_s());
+
+  // Overlays of the first guess: the headline method (alt-nid when run) per pair.
+  std::string overlay_method = data.methods.front();
+  if (first_guess_results.count("alt-nid") != 0) overlay_method = "alt-nid";
+  else if (!first_guess_results.empty() && first_guess_results.count(overlay_method) == 0)
+    overlay_method = first_guess_results.begin()->first;
+  if (args.overlay_scenes > 0 && first_guess_results.count(overlay_method) != 0) {
+    set_guess(0);
+    CalibrationOptions overlay_options = options;
+    ParseCalibrationScheme(overlay_method.substr(0, overlay_method.find('-')), &overlay_options.scheme);
+    overlay_options.cost.metric = *ParseMetricKind(overlay_method.substr(overlay_method.find('-') + 1));
+    for (const auto& [lidar_name, T_base_lidar] : first_guess_results.at(overlay_method)) {
+      const LidarInfo* lidar = input.rig.FindLidar(lidar_name);
+      for (const CameraInfo& camera : input.rig.cameras) {
+        PairCost cost = BuildPairCost(input, camera, lidar_name, overlay_options);
+        if (cost.Scenes().empty()) continue;
+        const Eigen::Isometry3d T_camera_lidar_initial = camera.T_base_camera.inverse() * lidar->T_base_lidar;
+        const Eigen::Isometry3d T_camera_lidar = camera.T_base_camera.inverse() * T_base_lidar;
+        PreparePairForStage(cost, OptimisationStage{1.0, 0.0, 0}, T_camera_lidar);
+        for (report::OverlayFigure& figure :
+             report::MakePairOverlays(cost, T_camera_lidar_initial, T_camera_lidar,
+                                      fmt::format("overlay_{}_{}_{}", overlay_method, camera.name, lidar_name),
+                                      args.overlay_scenes)) {
+          figure.title = overlay_method + ", guess 1: " + figure.title;
+          data.overlays.push_back(std::move(figure));
+        }
+      }
+    }
+  }
+  report::WriteReportDirectory(output.string(), report::RenderExperimentReport(data),
+                               report::ExperimentReportAttachments(data));
+  spdlog::info("wrote {} and {} ({} runs, {})", (output / "runs.csv").string(), (output / "report.html").string(),
+               done, FormatDuration(elapsed_s()));
+
+  // A summary per method on stdout: median translation and rotation error.
+  std::map<std::string, std::pair<std::vector<double>, std::vector<double>>> errors;
+  for (const RunRecord& run : runs) {
+    if (!run.success) continue;
+    errors[Method(run.scheme, run.metric)].first.push_back(TranslationError(run.T_base_lidar, run.T_base_lidar_truth));
+    errors[Method(run.scheme, run.metric)].second.push_back(
+        RotationErrorDegrees(run.T_base_lidar, run.T_base_lidar_truth));
+  }
+  const auto median = [](std::vector<double> v) {
+    std::sort(v.begin(), v.end());
+    const std::size_t n = v.size();
+    return n % 2 == 1 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+  };
+  for (const std::string& method : data.methods) {
+    const auto it = errors.find(method);
+    if (it == errors.end()) {
+      fmt::print("{}: no successful run\n", method);
+      continue;
+    }
+    fmt::print("{}: {} runs, median translation error {:.4f} m, median rotation error {:.3f} deg\n", method,
+               it->second.first.size(), median(it->second.first), median(it->second.second));
+  }
+  if (errors.empty()) {
+    spdlog::error("no run could be calibrated (see the termination column of {})", (output / "runs.csv").string());
+    return kExitFailure;
+  }
+  return kExitSuccess;
+}
+
+}  // namespace
+
+CommandRunner AddExperimentCommand(CLI::App& app) {
+  auto args = std::make_shared<ExperimentArguments>();
+  CLI::App* command = app.add_subcommand(
+      "experiment",
+      "The paper's experiment (Fig. 7 and 8): calibrate from several perturbed initial guesses with every scheme\n"
+      "and metric, compare with the ground truth, and write OUTPUT/runs.csv and OUTPUT/report.html.\n"
+      "Simulates the dataset into OUTPUT/dataset unless --dataset is given. Exit 2 for bad options or input,\n"
+      "1 when no run could be calibrated.");
+  command->add_option("--preset", args->preset, "Simulated rig: robotcar (stereo + rear push-broom) or trinocular")
+      ->check(CLI::IsMember({"robotcar", "trinocular"}))
+      ->capture_default_str();
+  command->add_option("--dataset", args->dataset,
+                      "Use this dataset (FORMAT.md, with ground_truth.yaml) instead of simulating one")
+      ->check(CLI::ExistingDirectory);
+  command->add_option("-o,--output", args->output, "Output directory (runs.csv, report.html, PNGs, dataset/)")
+      ->required();
+  command->add_option("--seed", args->seed, "Seed of the simulation and of the guesses' random directions")
+      ->capture_default_str();
+  command->add_option("--guesses", args->guesses, "Initial guesses (trials) per scheme and metric")
+      ->check(CLI::Range(1, 10000))
+      ->capture_default_str();
+  command->add_option("--perturb-translation", args->perturb_translation_m,
+                      "Each guess is the truth moved by exactly this many metres in a random direction")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  command->add_option("--perturb-rotation", args->perturb_rotation_deg,
+                      "... and rotated by exactly this many degrees about a random axis")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  command->add_option("--schemes", args->schemes, "Comma-separated schemes: once, joint, alt")
+      ->delimiter(',')
+      ->check(CLI::IsMember({"once", "joint", "alt"}))
+      ->capture_default_str();
+  command->add_option("--metrics", args->metrics, "Comma-separated metrics: nid, mi")
+      ->delimiter(',')
+      ->check(CLI::IsMember({"nid", "mi"}))
+      ->capture_default_str();
+  command->add_option("--scenes", args->scenes, "Camera frames (scenes) per camera")
+      ->check(CLI::Range(1, 100000))
+      ->capture_default_str();
+  command->add_option("--alternations", args->alternations, "alt: maximum number of alternations (the paper: 20)")
+      ->check(CLI::Range(1, 10000))
+      ->capture_default_str();
+  command->add_option("--threads", args->threads, "Worker threads; 0 = all hardware threads")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  command->add_option("--image-size", args->image_size,
+                      "Simulated image size WxH (default: the simulator's 1280x960)");
+  command->add_option("--distance", args->distance_m, "Simulated drive length in metres")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  command->add_option("--max-iterations", args->max_iterations, "Nelder-Mead iterations per stage (the paper: 200)")
+      ->check(CLI::Range(1, 1000000))
+      ->capture_default_str();
+  command->add_option("--stages", args->stages,
+                      "Coarse-to-fine schedule, as calibrate's --stages (SCALE[:BLUR[:RESTARTS]],...)")
+      ->capture_default_str();
+  command->add_option("--swathe-length", args->swathe_length_m, "Swathe length L in metres")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  command->add_option("--overlay-scenes", args->overlay_scenes,
+                      "Scenes per camera/lidar pair shown as overlays (first guess, alt-nid when run); 0 = none")
+      ->check(CLI::Range(0, 100))
+      ->capture_default_str();
+  command->add_flag("--force", args->force, "Replace OUTPUT/dataset when simulating into a non-empty one");
+  return [args] { return RunExperiment(*args); };
+}
+
+}  // namespace scenecal::cli

@@ -1,0 +1,42 @@
+// Scene selection and loading shared by `calibrate` and `experiment`: selects
+// the scenes from the file timestamps and reads only the images and scans they
+// use, in parallel. Also the exact-magnitude perturbation of an initial guess
+// used by robustness studies.
+#pragma once
+
+#include <cstddef>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "core/calibrate.hpp"
+#include "io/dataset.hpp"
+
+namespace scenecal::cli {
+
+struct LoadedScenes {
+  std::size_t images = 0;        // images read
+  std::size_t scans = 0;         // scans read
+  std::size_t lidar_points = 0;  // points in the scans read
+};
+
+// Fills input->selection (SelectScenes on the dataset's rig, trajectory and
+// file times with `scene_options`), input->images and input->scans.
+// input->rig is left as the caller set it. Logs the selection report and the
+// counts with spdlog. Throws io::InputError for unreadable files.
+LoadedScenes SelectAndLoadScenes(const io::Dataset& dataset, const SceneOptions& scene_options,
+                                 CalibrationInput* input);
+
+// Moves T by exactly translation_m (metres, base frame) and rotation_deg
+// (degrees, about an axis through T's origin, left-multiplied) in random
+// directions drawn from rng.
+Eigen::Isometry3d PerturbExactly(const Eigen::Isometry3d& T, double translation_m, double rotation_deg,
+                                 std::mt19937_64& rng);
+
+// "SCALE[:BLUR[:RESTARTS]],..." -> coarse-to-fine stages (calibrate's --stages);
+// false when malformed.
+bool ParseStageSchedule(const std::string& text, std::vector<OptimisationStage>* stages);
+
+}  // namespace scenecal::cli

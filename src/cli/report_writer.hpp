@@ -1,0 +1,30 @@
+// `scenecal calibrate --report DIR`: the HTML report of one calibration
+// (report/html_report.hpp): summary, convergence per alternation (alt), cost
+// slices, overlays of the projected swathes. The pair costs are rebuilt from
+// the input (the outcome carries none), so this reads no files but writes DIR.
+#pragma once
+
+#include <string>
+
+#include "cli/calibrate_alt.hpp"
+#include "core/calibrate.hpp"
+#include "io/dataset.hpp"
+
+namespace scenecal::cli {
+
+struct CalibrationReportOptions {
+  int slice_samples = 15;           // per DoF and slice set
+  int slice_alternations = 4;       // alt: slice at most this many alternations
+  int overlay_scenes_per_pair = 2;  // scenes with the most projected points
+};
+
+// Builds and writes DIR/report.html and its PNGs. `input.rig` holds the
+// initial guesses the calibration started from; `alt_or_null` the alternating
+// run's history (nullptr for once / joint: the convergence section says there
+// is none). Errors to the truth are shown when the dataset has ground truth.
+// Throws std::runtime_error when writing fails. Logs progress with spdlog.
+void WriteCalibrationReport(const std::string& dir, const CalibrationInput& input, const CalibrationOptions& options,
+                            const CalibrationOutcome& outcome, const AlternatingRun* alt_or_null,
+                            const io::Dataset& dataset, const CalibrationReportOptions& report_options = {});
+
+}  // namespace scenecal::cli

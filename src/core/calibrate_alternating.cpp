@@ -1,0 +1,288 @@
+#include "core/calibrate_alternating.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cstring>
+#include <sstream>
+
+namespace scenecal {
+namespace {
+
+std::string Number(double value) {
+  std::ostringstream out;
+  out.precision(6);
+  out << value;
+  return out.str();
+}
+
+// FNV-1a, folding values into a digest.
+struct Digest {
+  std::uint64_t hash = 1469598103934665603ull;
+  void Add(const void* data, std::size_t size) {
+    const auto* bytes = static_cast<const unsigned char*>(data);
+    for (std::size_t i = 0; i < size; ++i) {
+      hash ^= bytes[i];
+      hash *= 1099511628211ull;
+    }
+  }
+  void Add(double value) { Add(&value, sizeof(value)); }
+  void Add(std::uint64_t value) { Add(&value, sizeof(value)); }
+  void Add(const std::string& text) { Add(text.data(), text.size()); }
+};
+
+}  // namespace
+
+const OptimisationStage& StageForAlternation(const std::vector<OptimisationStage>& stages, int alternation,
+                                             int max_alternations) {
+  const std::size_t count = stages.size();
+  const std::size_t index =
+      std::min(count - 1, static_cast<std::size_t>(alternation) * count / static_cast<std::size_t>(std::max(1, max_alternations)));
+  return stages[index];
+}
+
+int FirstAlternationOfLastStage(const std::vector<OptimisationStage>& stages, int max_alternations) {
+  for (int i = 0; i < max_alternations; ++i) {
+    if (&StageForAlternation(stages, i, max_alternations) == &stages.back()) return i;
+  }
+  return max_alternations - 1;
+}
+
+AlternatingOptions DefaultAlternatingOptions(const CalibrationOptions& options) {
+  AlternatingOptions alternating;
+  alternating.lower = options.nelder_mead;
+  alternating.time_budget_s = options.time_budget_s;
+  alternating.min_alternations = FirstAlternationOfLastStage(options.stages, alternating.max_alternations) + 1;
+  return alternating;
+}
+
+std::vector<PairObjective> AlternatingSetup::Objectives(const CalibrationOptions& options,
+                                                        const AlternatingOptions& alternating) {
+  std::vector<PairObjective> objectives;
+  for (const std::unique_ptr<PairCost>& owned : costs) {
+    PairCost* cost = owned.get();
+    PairObjective objective;
+    objective.cost = [cost](const Eigen::Isometry3d& T_camera_lidar) { return cost->Evaluate(T_camera_lidar); };
+    const std::vector<OptimisationStage> stages = options.stages;
+    const int max_alternations = alternating.max_alternations;
+    objective.prepare = [cost, stages, max_alternations](const Eigen::Isometry3d& T_camera_lidar, int alternation) {
+      PreparePairForStage(*cost, StageForAlternation(stages, alternation, max_alternations), T_camera_lidar);
+    };
+    objectives.push_back(std::move(objective));
+  }
+  return objectives;
+}
+
+std::uint64_t AlternatingSetup::Fingerprint(const CalibrationOptions& options,
+                                            const AlternatingOptions& alternating) const {
+  Digest digest;
+  for (std::size_t p = 0; p < costs.size(); ++p) {
+    const PairCost& cost = *costs[p];
+    digest.Add(cost.Camera().name);
+    digest.Add(cost.Lidar());
+    digest.Add(static_cast<std::uint64_t>(cost.SceneCount()));
+    for (const SceneSwathe& scene : cost.Scenes()) {
+      digest.Add(static_cast<std::uint64_t>(scene.ImageTime()));
+      digest.Add(static_cast<std::uint64_t>(scene.PointCount()));
+    }
+    digest.Add(initial_costs[p]);
+  }
+  for (const AlternatingLidar& lidar : problem.lidars) {
+    digest.Add(lidar.T_base_lidar_initial.matrix().data(), sizeof(double) * 16);
+  }
+  digest.Add(static_cast<std::uint64_t>(options.cost.histogram.reflectance_bins));
+  digest.Add(static_cast<std::uint64_t>(options.cost.histogram.intensity_bins));
+  digest.Add(static_cast<std::uint64_t>(options.cost.metric));
+  digest.Add(static_cast<std::uint64_t>(options.cost.histogram.binning));
+  digest.Add(static_cast<std::uint64_t>(options.nelder_mead.max_iterations));
+  digest.Add(static_cast<std::uint64_t>(alternating.max_alternations));
+  digest.Add(alternating.covariance_shrink);
+  digest.Add(alternating.initial_sigma_translation_m);
+  digest.Add(alternating.initial_sigma_rotation_rad);
+  return digest.hash;
+}
+
+CalibrationStatus BuildAlternatingSetup(const CalibrationInput& input, const CalibrationOptions& options,
+                                        AlternatingSetup* setup, std::string* why) {
+  const Rig& rig = input.rig;
+  if (rig.cameras.empty() || rig.lidars.empty()) {
+    *why = "the rig needs at least one camera and one lidar";
+    return CalibrationStatus::kCannotCalibrate;
+  }
+  AlternatingProblem& problem = setup->problem;
+  for (std::size_t c = 0; c < rig.cameras.size(); ++c) {
+    const CameraInfo& camera = rig.cameras[c];
+    problem.cameras.push_back({camera.name, camera.T_base_camera, camera.T_base_camera_sigma});
+    if (camera.name == rig.base_frame) problem.base_camera = static_cast<int>(c);
+  }
+  for (std::size_t l = 0; l < rig.lidars.size(); ++l) {
+    const LidarInfo& lidar = rig.lidars[l];
+    problem.lidars.push_back({lidar.name, lidar.T_base_lidar});
+    int used_pairs = 0;
+    std::ostringstream unusable;
+    for (std::size_t c = 0; c < rig.cameras.size(); ++c) {
+      const CameraInfo& camera = rig.cameras[c];
+      auto cost = std::make_unique<PairCost>(BuildPairCost(input, camera, lidar.name, options));
+      const Eigen::Isometry3d T_camera_lidar = camera.T_base_camera.inverse() * lidar.T_base_lidar;
+      const int used = cost->RefreshVisibility(T_camera_lidar);
+      if (used == 0) {
+        unusable << " " << camera.name << ": " << cost->SceneCount() << " scenes, "
+                 << cost->CountState(SceneState::kTooFewPoints) << " too few points, "
+                 << cost->CountState(SceneState::kConstantImage) << " constant image, "
+                 << cost->CountState(SceneState::kConstantReflectance) << " constant reflectance;";
+        if (cost->SceneCount() > 0) {
+          setup->warnings.push_back("pair " + camera.name + "/" + lidar.name +
+                                    ": no usable scene at the initial guess; pair left out");
+        }
+        continue;
+      }
+      ++used_pairs;
+      setup->initial_costs.push_back(cost->Evaluate(T_camera_lidar));
+      problem.pairs.push_back({static_cast<int>(c), static_cast<int>(l)});
+      setup->costs.push_back(std::move(cost));
+    }
+    if (used_pairs == 0) {
+      *why = "lidar " + lidar.name + ": no scene with enough information (at least " +
+             std::to_string(options.cost.min_points_per_scene) +
+             " projected points, a non-constant image and non-constant reflectance) at the initial guess;" +
+             unusable.str();
+      return CalibrationStatus::kCannotCalibrate;
+    }
+  }
+  return CalibrationStatus::kSuccess;
+}
+
+CalibrationOutcome FinishAlternating(AlternatingSetup& setup, const AlternatingResult& solved,
+                                     const CalibrationInput& input, const CalibrationOptions& options,
+                                     const AlternatingOptions& alternating) {
+  CalibrationOutcome outcome;
+  if (!solved.success) {
+    outcome.status = CalibrationStatus::kCannotCalibrate;
+    outcome.why = "alternating optimisation failed: " + solved.termination;
+    return outcome;
+  }
+  CalibrationResult& result = outcome.result;
+  const AlternatingProblem& problem = setup.problem;
+  for (std::size_t l = 0; l < problem.lidars.size(); ++l) {
+    LidarCalibration lidar;
+    lidar.lidar = problem.lidars[l].name;
+    lidar.T_base_lidar = solved.T_base_lidar[l];
+    result.lidars.push_back(lidar);
+  }
+  for (std::size_t p = 0; p < problem.pairs.size(); ++p) {
+    PairCost& cost = *setup.costs[p];
+    const Eigen::Isometry3d& T_camera_lidar = solved.T_camera_lidar_upper[p];
+    cost.SetImageBlur(0.0);
+    cost.RefreshVisibility(T_camera_lidar);
+    PairReport report;
+    report.camera = cost.Camera().name;
+    report.lidar = cost.Lidar();
+    report.scenes = cost.SceneCount();
+    report.scenes_used = cost.UsedSceneCount();
+    report.scenes_too_few_points = cost.CountState(SceneState::kTooFewPoints);
+    report.scenes_constant_image = cost.CountState(SceneState::kConstantImage);
+    report.scenes_constant_reflectance = cost.CountState(SceneState::kConstantReflectance);
+    report.projected_points = cost.ProjectedAtRefresh();
+    report.initial_cost = setup.initial_costs[p];
+    report.final_cost = cost.Evaluate(T_camera_lidar);
+    const AlternatingPair& pair = problem.pairs[p];
+    report.T_camera_lidar_initial = problem.cameras[static_cast<std::size_t>(pair.camera)].T_base_camera.inverse() *
+                                    problem.lidars[static_cast<std::size_t>(pair.lidar)].T_base_lidar_initial;
+    outcome.pairs.push_back(report);
+    result.pairs.push_back({report.camera, report.lidar, T_camera_lidar, report.final_cost});
+  }
+  OptimisationReport optimisation;
+  optimisation.problem = "alt";
+  optimisation.evaluations = solved.total_evaluations;
+  optimisation.seconds = solved.history.empty() ? 0.0 : solved.history.back().elapsed_s;
+  outcome.optimisations.push_back(optimisation);
+
+  result.settings["scheme"] = "alt";
+  result.settings["metric"] = MetricKindName(options.cost.metric);
+  result.settings["bins"] = std::to_string(options.cost.histogram.reflectance_bins) + "x" +
+                            std::to_string(options.cost.histogram.intensity_bins);
+  result.settings["binning"] = BinningName(options.cost.histogram.binning);
+  result.settings["normalise_reflectance"] = NormalisationName(options.normalisation.reflectance);
+  result.settings["normalise_intensity"] = NormalisationName(options.normalisation.intensity);
+  result.settings["scenes_per_camera"] = std::to_string(options.scenes.scenes_per_camera);
+  result.settings["swathe_length_m"] = Number(options.scenes.swathe_length_m);
+  result.settings["direction"] = SwatheDirectionName(options.scenes.direction);
+  result.settings["min_points_per_scene"] = std::to_string(options.cost.min_points_per_scene);
+  result.settings["lower_level"] = "Nelder-Mead, " + std::to_string(alternating.lower.max_iterations) +
+                                   " iterations, initial steps min(" + Number(alternating.lower.initial_step_translation_m) +
+                                   " m, " + Number(alternating.lower.initial_step_rotation_rad) +
+                                   " rad; penalty sigma)";
+  result.settings["alternations_max"] = std::to_string(alternating.max_alternations);
+  result.settings["penalty_sigma0"] = Number(alternating.initial_sigma_translation_m) + " m, " +
+                                      Number(alternating.initial_sigma_rotation_rad) + " rad";
+  result.settings["penalty_shrink_w"] = Number(alternating.covariance_shrink);
+  result.settings["difference"] = "SE(3) logarithm of A * B^-1, [rho; phi]";
+  result.settings["default_camera_sigma"] = Number(alternating.default_camera_sigma_translation_m) + " m, " +
+                                            Number(alternating.default_camera_sigma_rotation_rad) +
+                                            " rad (cameras without T_base_camera_sigma)";
+  std::string stages;
+  for (const OptimisationStage& s : options.stages) {
+    stages += (stages.empty() ? "" : "; ") + std::string("blur ") + Number(s.blur_fraction);
+  }
+  result.settings["stages"] = stages + " (spread over the alternations)";
+  result.settings["threads"] = std::to_string(options.threads);
+  result.settings["seed"] = std::to_string(options.seed);
+  result.settings["time_budget_s"] = Number(alternating.time_budget_s);
+  result.termination = "alt " + std::string(MetricKindName(options.cost.metric)) + ": " + solved.termination + ", " +
+                       std::to_string(solved.total_evaluations) + " cost evaluations";
+  result.warnings = setup.warnings;
+  (void)input;
+  return outcome;
+}
+
+CalibrationOutcome CalibrateAlternating(const CalibrationInput& input, const CalibrationOptions& options,
+                                        const AlternatingOptions& alternating, const ProgressCallback& progress,
+                                        AlternatingResult* details, AlternatingProblem* problem) {
+  using Clock = std::chrono::steady_clock;
+  const Clock::time_point start = Clock::now();
+  CalibrationOutcome failed;
+  std::string why;
+  if (!options.IsValid(&why) || !alternating.IsValid(&why)) {
+    failed.status = CalibrationStatus::kInvalidOptions;
+    failed.why = "invalid options: " + why;
+    return failed;
+  }
+  AlternatingSetup setup;
+  const CalibrationStatus status = BuildAlternatingSetup(input, options, &setup, &why);
+  if (status != CalibrationStatus::kSuccess) {
+    failed.status = status;
+    failed.why = why;
+    return failed;
+  }
+  const double build_s = std::chrono::duration<double>(Clock::now() - start).count();
+  if (progress) progress("built " + std::to_string(setup.costs.size()) + " pair cost(s) in " + Number(build_s) + " s");
+  ThreadLowerLevelBackend backend(setup.Objectives(options, alternating));
+  const AlternatingResult solved = SolveAlternating(setup.problem, alternating, backend, [&](const AlternationRecord& record) {
+    if (progress) progress(DescribeAlternation(record, setup.problem));
+  });
+  CalibrationOutcome outcome = FinishAlternating(setup, solved, input, options, alternating);
+  outcome.result.timings_s["build_swathes"] = build_s;
+  outcome.result.timings_s["optimise"] = solved.history.empty() ? 0.0 : solved.history.back().elapsed_s;
+  outcome.result.timings_s["total"] = std::chrono::duration<double>(Clock::now() - start).count();
+  if (details) *details = solved;
+  if (problem) *problem = setup.problem;
+  return outcome;
+}
+
+std::string DescribeAlternation(const AlternationRecord& record, const AlternatingProblem& problem) {
+  std::ostringstream out;
+  out.precision(4);
+  out << "alternation " << record.alternation + 1 << ": penalty sigma " << record.sigma_translation_m << " m / "
+      << DegreesFromRadians(record.sigma_rotation_rad) << " deg; costs";
+  for (std::size_t p = 0; p < record.lower_cost.size(); ++p) {
+    const AlternatingPair& pair = problem.pairs[p];
+    out << " " << problem.cameras[static_cast<std::size_t>(pair.camera)].name << "/"
+        << problem.lidars[static_cast<std::size_t>(pair.lidar)].name << " " << record.lower_cost[p];
+  }
+  out << "; moved " << record.max_change_translation_m * 100.0 << " cm / "
+      << DegreesFromRadians(record.max_change_rotation_rad) << " deg; levels apart "
+      << record.max_disagreement_translation_m * 100.0 << " cm / "
+      << DegreesFromRadians(record.max_disagreement_rotation_rad) << " deg; " << record.elapsed_s << " s";
+  return out.str();
+}
+
+}  // namespace scenecal

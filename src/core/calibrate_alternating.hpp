@@ -1,0 +1,66 @@
+// The `alt` scheme of Calibrate: the paper's alternating optimisation
+// (core/alternating.hpp) over the pair costs of core/pair_cost.hpp.
+//
+// Split in three steps so that the MPI front end can run the middle one on
+// several ranks: every rank builds the same setup, rank 0 solves with an MPI
+// backend while the others serve their pairs, and rank 0 finishes.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/alternating.hpp"
+#include "core/calibrate.hpp"
+
+namespace scenecal {
+
+struct AlternatingSetup {
+  AlternatingProblem problem;
+  std::vector<std::unique_ptr<PairCost>> costs;  // one per problem.pairs entry
+  std::vector<double> initial_costs;             // f_p at the initial guess, per pair
+  std::vector<std::string> warnings;             // pairs left out, and why
+
+  // The objectives for the lower level: cost = PairCost::Evaluate; prepare =
+  // the coarse-to-fine stage of the alternation (image blur) and a visibility
+  // refresh at the estimate the run starts from.
+  std::vector<PairObjective> Objectives(const CalibrationOptions& options, const AlternatingOptions& alternating);
+  // A digest of what was built (pairs, scene and point counts, options), equal
+  // on every rank that read the same inputs.
+  std::uint64_t Fingerprint(const CalibrationOptions& options, const AlternatingOptions& alternating) const;
+};
+
+// The stage of options.stages that alternation i uses: the schedule is spread
+// evenly over max_alternations (the first alternations on the blurred images).
+const OptimisationStage& StageForAlternation(const std::vector<OptimisationStage>& stages, int alternation,
+                                             int max_alternations);
+// The first alternation of the last (sharpest) stage.
+int FirstAlternationOfLastStage(const std::vector<OptimisationStage>& stages, int max_alternations);
+
+// The paper's settings (20 alternations, P^0 from 5 m and 5 rad, w = 0.5,
+// 200 simplex iterations) with the lower level's steps, the time budget and
+// the coarse-to-fine stages taken from the calibration options.
+AlternatingOptions DefaultAlternatingOptions(const CalibrationOptions& options);
+
+// Builds every (camera, lidar) pair cost with usable scenes at the initial guess.
+// Returns kSuccess, or another status with *why (e.g. a lidar with no usable scene).
+CalibrationStatus BuildAlternatingSetup(const CalibrationInput& input, const CalibrationOptions& options,
+                                        AlternatingSetup* setup, std::string* why);
+
+// Turns the alternating result into the calibration outcome: T_base_lidar per
+// lidar, each pair's upper-level T_camera_lidar with its final cost (sharp
+// images, visibility refreshed there), settings and the termination.
+CalibrationOutcome FinishAlternating(AlternatingSetup& setup, const AlternatingResult& solved,
+                                     const CalibrationInput& input, const CalibrationOptions& options,
+                                     const AlternatingOptions& alternating);
+
+// All three steps on this process, the lower level on threads.
+CalibrationOutcome CalibrateAlternating(const CalibrationInput& input, const CalibrationOptions& options,
+                                        const AlternatingOptions& alternating, const ProgressCallback& progress,
+                                        AlternatingResult* details = nullptr, AlternatingProblem* problem = nullptr);
+
+// Progress line for one alternation (for logs).
+std::string DescribeAlternation(const AlternationRecord& record, const AlternatingProblem& problem);
+
+}  // namespace scenecal

@@ -1,0 +1,237 @@
+// `scenecal experiment` and `scenecal calibrate --report`, run as the CLI on a
+// tiny simulated street (320x240 images, 90 m): the files they write, their
+// rows and columns, the report's sections, and the exit codes.
+#include <sys/wait.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <random>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string ReadText(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// Runs the CLI with `arguments` (stdout and stderr into log); returns its exit code.
+int RunCli(const std::string& arguments, const fs::path& log) {
+  const std::string command = std::string(SCENECAL_CLI_PATH) + " " + arguments + " >" + log.string() + " 2>&1";
+  const int status = std::system(command.c_str());
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+// A CSV without quoted separators in the columns we read (the last column,
+// termination, may hold commas inside quotes: only the leading fields are split).
+std::vector<std::string> SplitLeadingFields(const std::string& line, std::size_t count) {
+  std::vector<std::string> fields;
+  std::size_t begin = 0;
+  while (fields.size() < count) {
+    const std::size_t end = line.find(',', begin);
+    fields.push_back(line.substr(begin, end == std::string::npos ? std::string::npos : end - begin));
+    if (end == std::string::npos) break;
+    begin = end + 1;
+  }
+  return fields;
+}
+
+std::vector<std::string> Lines(const std::string& text) {
+  std::vector<std::string> lines;
+  std::istringstream in(text);
+  for (std::string line; std::getline(in, line);)
+    if (!line.empty()) lines.push_back(line);
+  return lines;
+}
+
+void ExpectSelfContained(const std::string& html) {
+  for (const char* bad : {"http://", "https://", "src=\"//", "<script", "<link", "@import", "url("}) {
+    EXPECT_EQ(html.find(bad), std::string::npos) << "report.html holds an external reference: " << bad;
+  }
+}
+
+class ExperimentCli : public ::testing::Test {
+ protected:
+  // One tiny experiment shared by the tests (it simulates its own dataset).
+  static void SetUpTestSuite() {
+    std::random_device random;
+    root_ = new fs::path(fs::temp_directory_path() / ("scenecal_experiment_test_" + std::to_string(random())));
+    fs::create_directories(*root_);
+    exit_code_ = RunCli("experiment --preset robotcar --seed 3 --image-size 320x240 --distance 90 --guesses 2 "
+                        "--scenes 4 --alternations 3 --schemes once,alt --metrics nid --threads 2 --output " +
+                            (*root_ / "experiment").string(),
+                        *root_ / "experiment.log");
+  }
+  static void TearDownTestSuite() {
+    std::error_code ignored;
+    fs::remove_all(*root_, ignored);
+    delete root_;
+    root_ = nullptr;
+  }
+  static fs::path Experiment() { return *root_ / "experiment"; }
+  static fs::path Dataset() { return *root_ / "experiment" / "dataset"; }
+  static fs::path Root() { return *root_; }
+  static int exit_code_;
+
+ private:
+  static fs::path* root_;
+};
+fs::path* ExperimentCli::root_ = nullptr;
+int ExperimentCli::exit_code_ = -1;
+
+TEST_F(ExperimentCli, RunsCsvHasOneRowPerGuessSchemeAndMetric) {
+  ASSERT_EQ(exit_code_, 0) << ReadText(Root() / "experiment.log");
+  ASSERT_TRUE(fs::exists(Dataset() / "rig.yaml")) << "the experiment simulates into OUTPUT/dataset";
+  const std::vector<std::string> lines = Lines(ReadText(Experiment() / "runs.csv"));
+  ASSERT_FALSE(lines.empty());
+  const std::vector<std::string> header = SplitLeadingFields(lines[0], 100);
+  std::map<std::string, std::size_t> column;
+  for (std::size_t i = 0; i < header.size(); ++i) column[header[i]] = i;
+  for (const char* name :
+       {"guess", "scheme", "metric", "method", "lidar", "success", "translation_error_m", "rotation_error_deg",
+        "error_x_m", "error_y_m", "error_z_m", "error_roll_deg", "error_pitch_deg", "error_yaw_deg",
+        "initial_translation_error_m", "initial_rotation_error_deg", "initial_cost", "cost", "evaluations", "seconds",
+        "termination"}) {
+    EXPECT_EQ(column.count(name), 1u) << "runs.csv lacks column " << name;
+  }
+  ASSERT_EQ(header.back(), "termination");
+  // 2 guesses x {once, alt} x {nid}, one lidar.
+  ASSERT_EQ(lines.size(), 1u + 4u);
+  std::set<std::pair<std::string, std::string>> seen;  // (guess, method)
+  std::map<std::string, std::set<std::string>> initial_cost_by_guess;
+  for (std::size_t r = 1; r < lines.size(); ++r) {
+    const std::vector<std::string> row = SplitLeadingFields(lines[r], header.size() - 1);
+    ASSERT_EQ(row.size(), header.size() - 1) << lines[r];
+    const auto field = [&](const char* name) { return row[column.at(name)]; };
+    const auto number = [&](const char* name) { return std::stod(field(name)); };
+    seen.insert({field("guess"), field("method")});
+    EXPECT_EQ(field("metric"), "nid");
+    EXPECT_EQ(field("lidar"), "lms_rear");
+    EXPECT_EQ(field("method"), field("scheme") + "-" + field("metric"));
+    EXPECT_EQ(field("success"), "1") << lines[r];
+    // Every guess is the truth moved by exactly 0.1 m and 3 deg.
+    EXPECT_NEAR(number("initial_translation_error_m"), 0.1, 1e-6);
+    EXPECT_NEAR(number("initial_rotation_error_deg"), 3.0, 1e-6);
+    const double translation = number("translation_error_m");
+    const double rotation = number("rotation_error_deg");
+    ASSERT_TRUE(std::isfinite(translation) && std::isfinite(rotation)) << lines[r];
+    // The total translation error is the norm of the per-axis ones.
+    EXPECT_NEAR(std::hypot(number("error_x_m"), number("error_y_m"), number("error_z_m")), translation, 1e-5);
+    // Calibrating improves on the guess it started from.
+    EXPECT_LT(translation, number("initial_translation_error_m")) << lines[r];
+    EXPECT_LT(number("cost"), number("initial_cost")) << lines[r];
+    EXPECT_GT(std::stoi(field("evaluations")), 0);
+    EXPECT_GT(number("seconds"), 0.0);
+    initial_cost_by_guess[field("guess")].insert(field("initial_cost"));
+  }
+  EXPECT_EQ(seen.size(), 4u) << "each (guess, method) once";
+  // Every scheme starts from the same guess: the same cost there.
+  ASSERT_EQ(initial_cost_by_guess.size(), 2u);
+  for (const auto& [guess, costs] : initial_cost_by_guess) EXPECT_EQ(costs.size(), 1u) << "guess " << guess;
+}
+
+TEST_F(ExperimentCli, ReportHasTheFiguresAndNoExternalReference) {
+  ASSERT_EQ(exit_code_, 0) << ReadText(Root() / "experiment.log");
+  const std::string html = ReadText(Experiment() / "report.html");
+  ASSERT_FALSE(html.empty());
+  for (const char* section : {"summary", "box-plots", "per-dof-errors", "runs", "overlays"}) {
+    EXPECT_NE(html.find(std::string("<section id=\"") + section + "\""), std::string::npos) << section;
+  }
+  EXPECT_NE(html.find("once-nid"), std::string::npos);
+  EXPECT_NE(html.find("alt-nid"), std::string::npos);
+  EXPECT_NE(html.find("<svg"), std::string::npos);
+  EXPECT_NE(html.find("data:image/png;base64,"), std::string::npos) << "overlays embedded";
+  ExpectSelfContained(html);
+  // Progress on stderr: runs done / total with the time left.
+  const std::string log = ReadText(Root() / "experiment.log");
+  EXPECT_NE(log.find("[4/4]"), std::string::npos);
+  EXPECT_NE(log.find("about"), std::string::npos);
+}
+
+TEST_F(ExperimentCli, BadOptionsExitWithTwo) {
+  ASSERT_EQ(exit_code_, 0) << ReadText(Root() / "experiment.log");
+  const std::string dataset = " --dataset " + Dataset().string();
+  const fs::path log = Root() / "bad.log";
+  EXPECT_EQ(RunCli("experiment --schemes once,bogus --output " + (Root() / "bad1").string(), log), 2);
+  EXPECT_EQ(RunCli("experiment --metrics nid,nid" + dataset + " --output " + (Root() / "bad2").string(), log), 2)
+      << ReadText(log);
+  EXPECT_NE(ReadText(log).find("--metrics"), std::string::npos) << ReadText(log);
+  EXPECT_EQ(RunCli("experiment --guesses 0 --output " + (Root() / "bad3").string(), log), 2);
+  EXPECT_EQ(RunCli("experiment --preset spin3d --output " + (Root() / "bad4").string(), log), 2);
+  EXPECT_EQ(RunCli("experiment --image-size 320by240 --output " + (Root() / "bad5").string(), log), 2);
+  EXPECT_NE(ReadText(log).find("--image-size"), std::string::npos) << ReadText(log);
+  EXPECT_EQ(RunCli("experiment" + dataset + " --stages 1:x --output " + (Root() / "bad6").string(), log), 2);
+  // A dataset without ground truth cannot be scored.
+  const fs::path no_truth = Root() / "no_truth";
+  fs::copy(Dataset(), no_truth, fs::copy_options::recursive);
+  fs::remove(no_truth / "ground_truth.yaml");
+  EXPECT_EQ(RunCli("experiment --dataset " + no_truth.string() + " --output " + (Root() / "bad7").string(), log), 2);
+  EXPECT_NE(ReadText(log).find("ground_truth.yaml"), std::string::npos) << ReadText(log);
+  // Help explains the protocol.
+  EXPECT_EQ(RunCli("experiment --help", log), 0);
+  EXPECT_NE(ReadText(log).find("--perturb-translation"), std::string::npos);
+}
+
+TEST_F(ExperimentCli, NothingCalibratedExitsWithOne) {
+  ASSERT_EQ(exit_code_, 0) << ReadText(Root() / "experiment.log");
+  // Guesses 500 m off: no lidar point lands in any image, so no run can start.
+  const fs::path output = Root() / "hopeless";
+  const fs::path log = Root() / "hopeless.log";
+  EXPECT_EQ(RunCli("experiment --dataset " + Dataset().string() +
+                       " --guesses 1 --schemes once --metrics nid --scenes 4 --perturb-translation 500 --output " +
+                       output.string(),
+                   log),
+            1)
+      << ReadText(log);
+  const std::vector<std::string> lines = Lines(ReadText(output / "runs.csv"));
+  ASSERT_EQ(lines.size(), 2u);
+  EXPECT_EQ(SplitLeadingFields(lines[1], 6)[5], "0") << "the run is recorded as failed";
+}
+
+TEST_F(ExperimentCli, CalibrateReportWritesPageAndOverlays) {
+  ASSERT_EQ(exit_code_, 0) << ReadText(Root() / "experiment.log");
+  for (const std::string scheme : {"alt", "joint"}) {
+    SCOPED_TRACE(scheme);
+    const fs::path report = Root() / ("report_" + scheme);
+    const fs::path log = Root() / ("calibrate_" + scheme + ".log");
+    ASSERT_EQ(RunCli("calibrate " + Dataset().string() + " --scheme " + scheme +
+                         " --scenes 3 --alternations 2 --threads 2 --output " +
+                         (Root() / ("result_" + scheme + ".yaml")).string() + " --report " + report.string(),
+                     log),
+              0)
+        << ReadText(log);
+    const std::string html = ReadText(report / "report.html");
+    for (const char* section : {"summary", "convergence", "cost-slices", "overlays"}) {
+      EXPECT_NE(html.find(std::string("<section id=\"") + section + "\""), std::string::npos) << section;
+    }
+    ExpectSelfContained(html);
+    EXPECT_NE(html.find("data:image/png;base64,"), std::string::npos);
+    // Alt has a history to plot; joint says it has none.
+    const bool says_no_history = html.find("No alternation history") != std::string::npos;
+    EXPECT_EQ(says_no_history, scheme != "alt");
+    int pngs = 0;
+    for (const fs::directory_entry& entry : fs::directory_iterator(report)) {
+      if (entry.path().extension() != ".png") continue;
+      ++pngs;
+      const std::string bytes = ReadText(entry.path());
+      ASSERT_GE(bytes.size(), 8u);
+      EXPECT_EQ(bytes.substr(1, 3), "PNG") << entry.path();
+    }
+    // Two pairs (left, right) x at least one scene x (initial vs result, reflectance).
+    EXPECT_GE(pngs, 4);
+  }
+}
+
+}  // namespace
