@@ -64,15 +64,15 @@ void ExpectSelfContained(const std::string& html) {
 
 class ExperimentCli : public ::testing::Test {
  protected:
-  // One tiny experiment shared by the tests (it simulates its own dataset).
+  // One tiny dataset shared by the tests (ctest runs each test in its own
+  // process, so this is all the suite repeats per test).
   static void SetUpTestSuite() {
     std::random_device random;
     root_ = new fs::path(fs::temp_directory_path() / ("scenecal_experiment_test_" + std::to_string(random())));
     fs::create_directories(*root_);
-    exit_code_ = RunCli("experiment --preset robotcar --seed 3 --image-size 320x240 --distance 90 --guesses 2 "
-                        "--scenes 4 --alternations 3 --schemes once,alt --metrics nid --threads 2 --output " +
-                            (*root_ / "experiment").string(),
-                        *root_ / "experiment.log");
+    exit_code_ = RunCli("simulate --preset robotcar --seed 3 --image-size 320x240 --distance 90 --output " +
+                            Dataset().string(),
+                        *root_ / "simulate.log");
   }
   static void TearDownTestSuite() {
     std::error_code ignored;
@@ -81,7 +81,7 @@ class ExperimentCli : public ::testing::Test {
     root_ = nullptr;
   }
   static fs::path Experiment() { return *root_ / "experiment"; }
-  static fs::path Dataset() { return *root_ / "experiment" / "dataset"; }
+  static fs::path Dataset() { return *root_ / "dataset"; }
   static fs::path Root() { return *root_; }
   static int exit_code_;
 
@@ -91,9 +91,15 @@ class ExperimentCli : public ::testing::Test {
 fs::path* ExperimentCli::root_ = nullptr;
 int ExperimentCli::exit_code_ = -1;
 
-TEST_F(ExperimentCli, RunsCsvHasOneRowPerGuessSchemeAndMetric) {
-  ASSERT_EQ(exit_code_, 0) << ReadText(Root() / "experiment.log");
-  ASSERT_TRUE(fs::exists(Dataset() / "rig.yaml")) << "the experiment simulates into OUTPUT/dataset";
+// The brief's tiny setting; the experiment simulates its own dataset.
+TEST_F(ExperimentCli, TinyExperimentWritesRunsAndReport) {
+  ASSERT_EQ(RunCli("experiment --preset robotcar --seed 3 --image-size 320x240 --distance 90 --guesses 2 "
+                   "--scenes 4 --alternations 3 --schemes once,alt --metrics nid --threads 2 --output " +
+                       Experiment().string(),
+                   Root() / "experiment.log"),
+            0)
+      << ReadText(Root() / "experiment.log");
+  ASSERT_TRUE(fs::exists(Experiment() / "dataset" / "rig.yaml")) << "the experiment simulates into OUTPUT/dataset";
   const std::vector<std::string> lines = Lines(ReadText(Experiment() / "runs.csv"));
   ASSERT_FALSE(lines.empty());
   const std::vector<std::string> header = SplitLeadingFields(lines[0], 100);
@@ -140,10 +146,14 @@ TEST_F(ExperimentCli, RunsCsvHasOneRowPerGuessSchemeAndMetric) {
   // Every scheme starts from the same guess: the same cost there.
   ASSERT_EQ(initial_cost_by_guess.size(), 2u);
   for (const auto& [guess, costs] : initial_cost_by_guess) EXPECT_EQ(costs.size(), 1u) << "guess " << guess;
-}
 
-TEST_F(ExperimentCli, ReportHasTheFiguresAndNoExternalReference) {
-  ASSERT_EQ(exit_code_, 0) << ReadText(Root() / "experiment.log");
+  // The Markdown summary: one line per method after the header and rule.
+  const std::vector<std::string> summary = Lines(ReadText(Experiment() / "summary.md"));
+  ASSERT_EQ(summary.size(), 2u + 2u);
+  EXPECT_EQ(summary[2].rfind("| once-nid | 2/2 |", 0), 0u) << summary[2];
+  EXPECT_EQ(summary[3].rfind("| alt-nid | 2/2 |", 0), 0u) << summary[3];
+
+  // The report: Fig. 7 and 8, the runs, overlays; self-contained.
   const std::string html = ReadText(Experiment() / "report.html");
   ASSERT_FALSE(html.empty());
   for (const char* section : {"summary", "box-plots", "per-dof-errors", "runs", "overlays"}) {
@@ -161,7 +171,7 @@ TEST_F(ExperimentCli, ReportHasTheFiguresAndNoExternalReference) {
 }
 
 TEST_F(ExperimentCli, BadOptionsExitWithTwo) {
-  ASSERT_EQ(exit_code_, 0) << ReadText(Root() / "experiment.log");
+  ASSERT_EQ(exit_code_, 0) << ReadText(Root() / "simulate.log");
   const std::string dataset = " --dataset " + Dataset().string();
   const fs::path log = Root() / "bad.log";
   EXPECT_EQ(RunCli("experiment --schemes once,bogus --output " + (Root() / "bad1").string(), log), 2);
@@ -185,7 +195,7 @@ TEST_F(ExperimentCli, BadOptionsExitWithTwo) {
 }
 
 TEST_F(ExperimentCli, NothingCalibratedExitsWithOne) {
-  ASSERT_EQ(exit_code_, 0) << ReadText(Root() / "experiment.log");
+  ASSERT_EQ(exit_code_, 0) << ReadText(Root() / "simulate.log");
   // Guesses 500 m off: no lidar point lands in any image, so no run can start.
   const fs::path output = Root() / "hopeless";
   const fs::path log = Root() / "hopeless.log";
@@ -201,7 +211,7 @@ TEST_F(ExperimentCli, NothingCalibratedExitsWithOne) {
 }
 
 TEST_F(ExperimentCli, CalibrateReportWritesPageAndOverlays) {
-  ASSERT_EQ(exit_code_, 0) << ReadText(Root() / "experiment.log");
+  ASSERT_EQ(exit_code_, 0) << ReadText(Root() / "simulate.log");
   for (const std::string scheme : {"alt", "joint"}) {
     SCOPED_TRACE(scheme);
     const fs::path report = Root() / ("report_" + scheme);

@@ -5,6 +5,7 @@
 // metric starts from the same guesses), calibrates with every scheme x metric
 // from every guess, and writes DIR/runs.csv and DIR/report.html.
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -103,13 +104,15 @@ std::string Number(double value, int precision = 6) {
 // per axis in the 6-tuple (tuple(estimate) - tuple(truth): x, y, z m; roll,
 // pitch, yaw deg, as the report's Fig. 8); and the translation error
 // t_est - t_gt (m) and rotation error R_est * R_gt^T as a rotation vector
-// (deg), both in the base frame (the base camera: x right, y down, z forward).
+// (deg), both in the base frame (the base camera: x right, y down, z forward);
+// the same for the initial guess.
 std::string RunsCsv(const std::vector<RunRecord>& runs) {
   std::string csv =
       "guess,scheme,metric,method,lidar,success,translation_error_m,rotation_error_deg,"
       "error_x_m,error_y_m,error_z_m,error_roll_deg,error_pitch_deg,error_yaw_deg,"
       "base_dx_m,base_dy_m,base_dz_m,base_rx_deg,base_ry_deg,base_rz_deg,"
-      "initial_translation_error_m,initial_rotation_error_deg,initial_cost,cost,evaluations,seconds,termination\n";
+      "initial_translation_error_m,initial_rotation_error_deg,initial_base_dx_m,initial_base_dy_m,initial_base_dz_m,"
+      "initial_base_rx_deg,initial_base_ry_deg,initial_base_rz_deg,initial_cost,cost,evaluations,seconds,termination\n";
   for (const RunRecord& run : runs) {
     const double nan = std::numeric_limits<double>::quiet_NaN();
     Vector6d tuple_error = Vector6d::Constant(nan);
@@ -130,6 +133,11 @@ std::string RunsCsv(const std::vector<RunRecord>& runs) {
     for (int k = 0; k < 3; ++k) fields.push_back(Number(base_dr[k]));
     fields.push_back(Number(TranslationError(run.T_base_lidar_initial, run.T_base_lidar_truth)));
     fields.push_back(Number(RotationErrorDegrees(run.T_base_lidar_initial, run.T_base_lidar_truth)));
+    const Eigen::Vector3d initial_dt = run.T_base_lidar_initial.translation() - run.T_base_lidar_truth.translation();
+    const Eigen::Vector3d initial_dr =
+        LogSO3(run.T_base_lidar_initial.linear() * run.T_base_lidar_truth.linear().transpose()) * 180.0 / kPi;
+    for (int k = 0; k < 3; ++k) fields.push_back(Number(initial_dt[k]));
+    for (int k = 0; k < 3; ++k) fields.push_back(Number(initial_dr[k]));
     fields.push_back(Number(run.initial_cost, 8));
     fields.push_back(Number(run.final_cost, 8));
     fields.push_back(std::to_string(run.evaluations));
@@ -139,6 +147,54 @@ std::string RunsCsv(const std::vector<RunRecord>& runs) {
     csv += "\n";
   }
   return csv;
+}
+
+// Quantile q in [0, 1] with linear interpolation between order statistics
+// (numpy's default); NaN for no values.
+double Quantile(std::vector<double> values, double q) {
+  if (values.empty()) return std::numeric_limits<double>::quiet_NaN();
+  std::sort(values.begin(), values.end());
+  const double position = q * static_cast<double>(values.size() - 1);
+  const std::size_t below = static_cast<std::size_t>(std::floor(position));
+  const std::size_t above = std::min(below + 1, values.size() - 1);
+  return values[below] + (position - static_cast<double>(below)) * (values[above] - values[below]);
+}
+
+// Markdown table per method: successful runs, median [q1, q3] of the
+// translation (cm) and rotation (deg) errors, and the median absolute
+// rotation error about each base axis (deg; base camera: x right, y down,
+// z forward) and translation error along it (cm).
+std::string SummaryTable(const std::vector<RunRecord>& runs, const std::vector<std::string>& methods) {
+  std::string table =
+      "| method | runs ok | translation error cm: median [q1, q3] | rotation error deg: median [q1, q3] | "
+      "median abs dx, dy, dz cm | median abs rx, ry, rz deg |\n|---|---|---|---|---|---|\n";
+  for (const std::string& method : methods) {
+    std::vector<double> translation, rotation;
+    std::array<std::vector<double>, 6> axes;
+    int attempted = 0;
+    for (const RunRecord& run : runs) {
+      if (Method(run.scheme, run.metric) != method) continue;
+      ++attempted;
+      if (!run.success) continue;
+      translation.push_back(100.0 * TranslationError(run.T_base_lidar, run.T_base_lidar_truth));
+      rotation.push_back(RotationErrorDegrees(run.T_base_lidar, run.T_base_lidar_truth));
+      const Eigen::Vector3d dt = run.T_base_lidar.translation() - run.T_base_lidar_truth.translation();
+      const Eigen::Vector3d dr = LogSO3(run.T_base_lidar.linear() * run.T_base_lidar_truth.linear().transpose());
+      for (int k = 0; k < 3; ++k) {
+        axes[static_cast<std::size_t>(k)].push_back(100.0 * std::abs(dt[k]));
+        axes[static_cast<std::size_t>(k + 3)].push_back(std::abs(dr[k]) * 180.0 / kPi);
+      }
+    }
+    const auto spread = [](const std::vector<double>& v, int digits) {
+      return fmt::format("{:.{}f} [{:.{}f}, {:.{}f}]", Quantile(v, 0.5), digits, Quantile(v, 0.25), digits,
+                         Quantile(v, 0.75), digits);
+    };
+    table += fmt::format("| {} | {}/{} | {} | {} | {:.2f}, {:.2f}, {:.2f} | {:.3f}, {:.3f}, {:.3f} |\n", method,
+                         translation.size(), attempted, spread(translation, 2), spread(rotation, 3),
+                         Quantile(axes[0], 0.5), Quantile(axes[1], 0.5), Quantile(axes[2], 0.5),
+                         Quantile(axes[3], 0.5), Quantile(axes[4], 0.5), Quantile(axes[5], 0.5));
+  }
+  return table;
 }
 
 // Checks the comma lists and option combinations; the reason in *why.
@@ -424,29 +480,13 @@ int RunExperiment(const ExperimentArguments& args) {
   spdlog::info("wrote {} and {} ({} runs, {})", (output / "runs.csv").string(), (output / "report.html").string(),
                done, FormatDuration(elapsed_s()));
 
-  // A summary per method on stdout: median translation and rotation error.
-  std::map<std::string, std::pair<std::vector<double>, std::vector<double>>> errors;
-  for (const RunRecord& run : runs) {
-    if (!run.success) continue;
-    errors[Method(run.scheme, run.metric)].first.push_back(TranslationError(run.T_base_lidar, run.T_base_lidar_truth));
-    errors[Method(run.scheme, run.metric)].second.push_back(
-        RotationErrorDegrees(run.T_base_lidar, run.T_base_lidar_truth));
-  }
-  const auto median = [](std::vector<double> v) {
-    std::sort(v.begin(), v.end());
-    const std::size_t n = v.size();
-    return n % 2 == 1 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-  };
-  for (const std::string& method : data.methods) {
-    const auto it = errors.find(method);
-    if (it == errors.end()) {
-      fmt::print("{}: no successful run\n", method);
-      continue;
-    }
-    fmt::print("{}: {} runs, median translation error {:.4f} m, median rotation error {:.3f} deg\n", method,
-               it->second.first.size(), median(it->second.first), median(it->second.second));
-  }
-  if (errors.empty()) {
+  // A summary per method (Markdown) on stdout and in DIR/summary.md.
+  const std::string summary = SummaryTable(runs, data.methods);
+  fmt::print("{}", summary);
+  io::WriteFileAtomically((output / "summary.md").string(), summary);
+  bool any_success = false;
+  for (const RunRecord& run : runs) any_success = any_success || run.success;
+  if (!any_success) {
     spdlog::error("no run could be calibrated (see the termination column of {})", (output / "runs.csv").string());
     return kExitFailure;
   }
