@@ -63,27 +63,6 @@ struct CalibrateArguments {
 
 // Moves T by exactly translation_m and rotation_deg in random directions (base
 // frame, left-multiplied) drawn from rng.
-Eigen::Isometry3d Perturb(const Eigen::Isometry3d& T, double translation_m, double rotation_deg, std::mt19937_64& rng) {
-  std::normal_distribution<double> normal(0.0, 1.0);
-  const auto random_unit = [&] {
-    Eigen::Vector3d v;
-    do {
-      v = Eigen::Vector3d(normal(rng), normal(rng), normal(rng));
-    } while (v.norm() < 1e-9);
-    return Eigen::Vector3d(v.normalized());
-  };
-  Eigen::Isometry3d offset = Eigen::Isometry3d::Identity();
-  offset.translation() = translation_m * random_unit();
-  offset.linear() = ExpSO3(RadiansFromDegrees(rotation_deg) * random_unit());
-  Eigen::Isometry3d moved = T;
-  moved.linear() = offset.linear() * T.linear();
-  moved.translation() = T.translation() + offset.translation();
-  return moved;
-}
-
-// Errors of an estimate against the truth, FORMAT.md plus per axis:
-// translation t_est - t_gt (cm) and the roll/pitch/yaw of R_est * R_gt^T
-// (deg), i.e. the rotation error expressed in the transform's target frame.
 std::string ErrorLine(const Eigen::Isometry3d& estimate, const Eigen::Isometry3d& truth) {
   const Eigen::Vector3d dt = (estimate.translation() - truth.translation()) * 100.0;
   const Eigen::Vector3d drpy = RollPitchYawFromRotation(estimate.linear() * truth.linear().transpose()) * 180.0 / kPi;
@@ -95,35 +74,6 @@ std::string ErrorLine(const Eigen::Isometry3d& estimate, const Eigen::Isometry3d
 }
 
 // "SCALE[:BLUR[:RESTARTS]],..." -> stages; false when malformed.
-bool ParseStages(const std::string& text, std::vector<OptimisationStage>* stages) {
-  stages->clear();
-  std::istringstream entries(text);
-  for (std::string entry; std::getline(entries, entry, ',');) {
-    std::istringstream fields(entry);
-    std::vector<std::string> parts;
-    for (std::string part; std::getline(fields, part, ':');) parts.push_back(part);
-    if (parts.empty() || parts.size() > 3) return false;
-    OptimisationStage stage;
-    try {
-      std::size_t used = 0;
-      stage.step_scale = std::stod(parts[0], &used);
-      if (used != parts[0].size()) return false;
-      if (parts.size() > 1) {
-        stage.blur_fraction = std::stod(parts[1], &used);
-        if (used != parts[1].size()) return false;
-      }
-      if (parts.size() > 2) {
-        stage.restarts = std::stoi(parts[2], &used);
-        if (used != parts[2].size()) return false;
-      }
-    } catch (const std::exception&) {
-      return false;
-    }
-    stages->push_back(stage);
-  }
-  return !stages->empty();
-}
-
 int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
   const auto start = std::chrono::steady_clock::now();
   CalibrationOptions options;
@@ -147,7 +97,7 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
   options.nelder_mead.max_iterations = args.max_iterations;
   options.nelder_mead.initial_step_translation_m = args.step_translation_m;
   options.nelder_mead.initial_step_rotation_rad = RadiansFromDegrees(args.step_rotation_deg);
-  if (!ParseStages(args.stages, &options.stages)) {
+  if (!ParseStageSchedule(args.stages, &options.stages)) {
     spdlog::error("--stages: expected comma-separated SCALE[:BLUR[:RESTARTS]] entries, got '{}'", args.stages);
     return kExitInvalidInput;
   }
@@ -190,7 +140,7 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
         }
         base_guess = truth->second;
       }
-      lidar.T_base_lidar = Perturb(base_guess, args.perturb_translation_m, args.perturb_rotation_deg, rng);
+      lidar.T_base_lidar = PerturbExactly(base_guess, args.perturb_translation_m, args.perturb_rotation_deg, rng);
       spdlog::info("lidar {}: initial guess = {} moved by {} m and {} deg (seed {})", lidar.name,
                    args.perturb_from_truth ? "the truth" : "rig.yaml's guess", args.perturb_translation_m,
                    args.perturb_rotation_deg, args.seed);

@@ -94,6 +94,24 @@ Eigen::Isometry3d MeanTransform(const std::vector<Eigen::Isometry3d>& transforms
   return mean;
 }
 
+void RecordCommonSettings(const CalibrationOptions& options, CalibrationResult* result) {
+  std::map<std::string, std::string>& settings = result->settings;
+  settings["scheme"] = CalibrationSchemeName(options.scheme);
+  settings["metric"] = MetricKindName(options.cost.metric);
+  settings["bins"] = std::to_string(options.cost.histogram.reflectance_bins) + "x" +
+                     std::to_string(options.cost.histogram.intensity_bins);
+  settings["binning"] = BinningName(options.cost.histogram.binning);
+  settings["normalise_reflectance"] = NormalisationName(options.normalisation.reflectance);
+  settings["normalise_intensity"] = NormalisationName(options.normalisation.intensity);
+  settings["scenes_per_camera"] = std::to_string(options.scenes.scenes_per_camera);
+  settings["swathe_length_m"] = FormatNumber(options.scenes.swathe_length_m);
+  settings["direction"] = SwatheDirectionName(options.scenes.direction);
+  settings["swathe_trim_margin_m"] = FormatNumber(options.swathe_trim_margin_m);
+  settings["min_points_per_scene"] = std::to_string(options.cost.min_points_per_scene);
+  settings["threads"] = std::to_string(options.threads);
+  settings["seed"] = std::to_string(options.seed);
+}
+
 PairCost BuildPairCost(const CalibrationInput& input, const CameraInfo& camera, const std::string& lidar,
                        const CalibrationOptions& options) {
   std::vector<const Scene*> scenes;
@@ -190,6 +208,8 @@ struct LidarProblem {
   std::vector<std::unique_ptr<PairCost>> pairs;  // one per camera, rig order
 };
 
+}  // namespace
+
 std::string DescribeUnusable(const std::string& lidar, const std::vector<std::unique_ptr<PairCost>>& pairs,
                              int min_points) {
   std::ostringstream out;
@@ -218,6 +238,8 @@ PairReport MakePairReport(const PairCost& pair, const Eigen::Isometry3d& T_initi
   report.T_camera_lidar_initial = T_initial;
   return report;
 }
+
+namespace {
 
 std::string StagesBrief(const std::vector<NelderMeadSummary>& stages) {
   int evaluations = 0, iterations = 0;
@@ -263,18 +285,7 @@ CalibrationOutcome Calibrate(const CalibrationInput& input, const CalibrationOpt
 
   // Settings, for the record.
   CalibrationResult& result = outcome.result;
-  result.settings["scheme"] = CalibrationSchemeName(options.scheme);
-  result.settings["metric"] = MetricKindName(options.cost.metric);
-  result.settings["bins"] = std::to_string(options.cost.histogram.reflectance_bins) + "x" +
-                            std::to_string(options.cost.histogram.intensity_bins);
-  result.settings["binning"] = BinningName(options.cost.histogram.binning);
-  result.settings["normalise_reflectance"] = NormalisationName(options.normalisation.reflectance);
-  result.settings["normalise_intensity"] = NormalisationName(options.normalisation.intensity);
-  result.settings["scenes_per_camera"] = std::to_string(options.scenes.scenes_per_camera);
-  result.settings["swathe_length_m"] = FormatNumber(options.scenes.swathe_length_m);
-  result.settings["direction"] = SwatheDirectionName(options.scenes.direction);
-  result.settings["swathe_trim_margin_m"] = FormatNumber(options.swathe_trim_margin_m);
-  result.settings["min_points_per_scene"] = std::to_string(options.cost.min_points_per_scene);
+  RecordCommonSettings(options, &result);
   result.settings["rotation_pivot"] = options.pivot_at_observed_centroid ? "observed centroid" : "lidar origin";
   result.settings["occlusion"] = options.cost.swathe.occlusion ? "zbuffer" : "off";
   result.settings["max_iterations_per_run"] = std::to_string(options.nelder_mead.max_iterations);
@@ -286,8 +297,6 @@ CalibrationOutcome Calibrate(const CalibrationInput& input, const CalibrationOpt
   result.settings["stages"] = stages;
   result.settings["initial_step_m"] = FormatNumber(options.nelder_mead.initial_step_translation_m);
   result.settings["initial_step_rad"] = FormatNumber(options.nelder_mead.initial_step_rotation_rad);
-  result.settings["threads"] = std::to_string(options.threads);
-  result.settings["seed"] = std::to_string(options.seed);
   result.settings["time_budget_s"] = FormatNumber(options.time_budget_s);
 
   // Build every pair's cost and check that each lidar has usable scenes.

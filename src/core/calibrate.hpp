@@ -17,6 +17,7 @@
 #include <cstdint>
 #include <functional>
 #include <map>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -144,6 +145,15 @@ std::vector<NelderMeadSummary> MinimiseCoarseToFine(
     const std::function<void(const OptimisationStage& stage, const Eigen::Isometry3d&)>& prepare,
     const NelderMeadOptions& options, const std::vector<OptimisationStage>& stages, double restart_min_improvement,
     Eigen::Isometry3d* transform, const StopRequested& stop_requested = {});
+
+// The settings every scheme records in the result (scheme, metric, bins, scenes, ...).
+void RecordCommonSettings(const CalibrationOptions& options, CalibrationResult* result);
+
+// Why no scene of a lidar's pairs carries information (for the status message).
+std::string DescribeUnusable(const std::string& lidar, const std::vector<std::unique_ptr<PairCost>>& pairs,
+                             int min_points);
+// The diagnostics of a pair in its current state (scenes used at its last refresh).
+PairReport MakePairReport(const PairCost& pair, const Eigen::Isometry3d& T_initial, double initial_cost);
 
 // Prepares a pair for a stage: blur and visibility at T_camera_lidar.
 void PreparePairForStage(PairCost& pair, const OptimisationStage& stage, const Eigen::Isometry3d& T_camera_lidar);

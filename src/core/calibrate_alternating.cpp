@@ -118,21 +118,18 @@ CalibrationStatus BuildAlternatingSetup(const CalibrationInput& input, const Cal
     const LidarInfo& lidar = rig.lidars[l];
     problem.lidars.push_back({lidar.name, lidar.T_base_lidar});
     int used_pairs = 0;
-    std::ostringstream unusable;
+    std::vector<std::unique_ptr<PairCost>> unusable;
     for (std::size_t c = 0; c < rig.cameras.size(); ++c) {
       const CameraInfo& camera = rig.cameras[c];
       auto cost = std::make_unique<PairCost>(BuildPairCost(input, camera, lidar.name, options));
       const Eigen::Isometry3d T_camera_lidar = camera.T_base_camera.inverse() * lidar.T_base_lidar;
       const int used = cost->RefreshVisibility(T_camera_lidar);
       if (used == 0) {
-        unusable << " " << camera.name << ": " << cost->SceneCount() << " scenes, "
-                 << cost->CountState(SceneState::kTooFewPoints) << " too few points, "
-                 << cost->CountState(SceneState::kConstantImage) << " constant image, "
-                 << cost->CountState(SceneState::kConstantReflectance) << " constant reflectance;";
         if (cost->SceneCount() > 0) {
           setup->warnings.push_back("pair " + camera.name + "/" + lidar.name +
                                     ": no usable scene at the initial guess; pair left out");
         }
+        unusable.push_back(std::move(cost));
         continue;
       }
       ++used_pairs;
@@ -141,10 +138,7 @@ CalibrationStatus BuildAlternatingSetup(const CalibrationInput& input, const Cal
       setup->costs.push_back(std::move(cost));
     }
     if (used_pairs == 0) {
-      *why = "lidar " + lidar.name + ": no scene with enough information (at least " +
-             std::to_string(options.cost.min_points_per_scene) +
-             " projected points, a non-constant image and non-constant reflectance) at the initial guess;" +
-             unusable.str();
+      *why = DescribeUnusable(lidar.name, unusable, options.cost.min_points_per_scene);
       return CalibrationStatus::kCannotCalibrate;
     }
   }
@@ -173,20 +167,13 @@ CalibrationOutcome FinishAlternating(AlternatingSetup& setup, const AlternatingR
     const Eigen::Isometry3d& T_camera_lidar = solved.T_camera_lidar_upper[p];
     cost.SetImageBlur(0.0);
     cost.RefreshVisibility(T_camera_lidar);
-    PairReport report;
-    report.camera = cost.Camera().name;
-    report.lidar = cost.Lidar();
-    report.scenes = cost.SceneCount();
-    report.scenes_used = cost.UsedSceneCount();
-    report.scenes_too_few_points = cost.CountState(SceneState::kTooFewPoints);
-    report.scenes_constant_image = cost.CountState(SceneState::kConstantImage);
-    report.scenes_constant_reflectance = cost.CountState(SceneState::kConstantReflectance);
-    report.projected_points = cost.ProjectedAtRefresh();
-    report.initial_cost = setup.initial_costs[p];
-    report.final_cost = cost.Evaluate(T_camera_lidar);
     const AlternatingPair& pair = problem.pairs[p];
-    report.T_camera_lidar_initial = problem.cameras[static_cast<std::size_t>(pair.camera)].T_base_camera.inverse() *
-                                    problem.lidars[static_cast<std::size_t>(pair.lidar)].T_base_lidar_initial;
+    PairReport report = MakePairReport(
+        cost,
+        problem.cameras[static_cast<std::size_t>(pair.camera)].T_base_camera.inverse() *
+            problem.lidars[static_cast<std::size_t>(pair.lidar)].T_base_lidar_initial,
+        setup.initial_costs[p]);
+    report.final_cost = cost.Evaluate(T_camera_lidar);
     outcome.pairs.push_back(report);
     result.pairs.push_back({report.camera, report.lidar, T_camera_lidar, report.final_cost});
   }
@@ -196,17 +183,8 @@ CalibrationOutcome FinishAlternating(AlternatingSetup& setup, const AlternatingR
   optimisation.seconds = solved.history.empty() ? 0.0 : solved.history.back().elapsed_s;
   outcome.optimisations.push_back(optimisation);
 
-  result.settings["scheme"] = "alt";
-  result.settings["metric"] = MetricKindName(options.cost.metric);
-  result.settings["bins"] = std::to_string(options.cost.histogram.reflectance_bins) + "x" +
-                            std::to_string(options.cost.histogram.intensity_bins);
-  result.settings["binning"] = BinningName(options.cost.histogram.binning);
-  result.settings["normalise_reflectance"] = NormalisationName(options.normalisation.reflectance);
-  result.settings["normalise_intensity"] = NormalisationName(options.normalisation.intensity);
-  result.settings["scenes_per_camera"] = std::to_string(options.scenes.scenes_per_camera);
-  result.settings["swathe_length_m"] = Number(options.scenes.swathe_length_m);
-  result.settings["direction"] = SwatheDirectionName(options.scenes.direction);
-  result.settings["min_points_per_scene"] = std::to_string(options.cost.min_points_per_scene);
+  RecordCommonSettings(options, &result);
+  result.settings["scheme"] = "alt";  // also when called with another options.scheme
   result.settings["lower_level"] = "Nelder-Mead, " + std::to_string(alternating.lower.max_iterations) +
                                    " iterations, initial steps min(" + Number(alternating.lower.initial_step_translation_m) +
                                    " m, " + Number(alternating.lower.initial_step_rotation_rad) +
@@ -224,8 +202,6 @@ CalibrationOutcome FinishAlternating(AlternatingSetup& setup, const AlternatingR
     stages += (stages.empty() ? "" : "; ") + std::string("blur ") + Number(s.blur_fraction);
   }
   result.settings["stages"] = stages + " (spread over the alternations)";
-  result.settings["threads"] = std::to_string(options.threads);
-  result.settings["seed"] = std::to_string(options.seed);
   result.settings["time_budget_s"] = Number(alternating.time_budget_s);
   result.termination = "alt " + std::string(MetricKindName(options.cost.metric)) + ": " + solved.termination + ", " +
                        std::to_string(solved.total_evaluations) + " cost evaluations";
