@@ -149,16 +149,6 @@ void AbortAllRanks(int exit_code) {
 
 bool OwnsPair(int pair, int rank, int size) { return size <= 0 || pair % size == rank; }
 
-std::uint64_t Fnv1a(const void* data, std::size_t size, std::uint64_t seed) {
-  std::uint64_t hash = seed;
-  const auto* bytes = static_cast<const unsigned char*>(data);
-  for (std::size_t i = 0; i < size; ++i) {
-    hash ^= bytes[i];
-    hash *= 1099511628211ull;
-  }
-  return hash;
-}
-
 bool FingerprintsAgree(std::uint64_t fingerprint, std::string* why) {
   const int size = WorldSize();
   std::vector<std::uint64_t> all(static_cast<std::size_t>(size));

@@ -65,7 +65,4 @@ class MpiLowerLevelBackend : public LowerLevelBackend {
 // bounds each batch on this rank too (0 = none).
 void ServeLowerLevel(std::vector<PairObjective> local);
 
-// FNV-1a over bytes, for fingerprints.
-std::uint64_t Fnv1a(const void* data, std::size_t size, std::uint64_t seed = 1469598103934665603ull);
-
 }  // namespace scenecal::distributed
