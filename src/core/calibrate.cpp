@@ -340,13 +340,31 @@ CalibrationOutcome Calibrate(const CalibrationInput& input, const CalibrationOpt
     }
     std::vector<Eigen::Isometry3d> T_camera_lidar(problem.pairs.size());
     std::vector<bool> solved(problem.pairs.size(), false);
+    // One optimisation problem: log its start, run the coarse-to-fine schedule
+    // on *transform, log and record its runs.
+    const auto optimise = [&](const std::string& name, double initial_cost, const NelderMeadOptions& nelder_mead,
+                              const std::function<double(const Eigen::Isometry3d&)>& cost,
+                              const std::function<void(const OptimisationStage&, const Eigen::Isometry3d&)>& prepare,
+                              Eigen::Isometry3d* transform) {
+      const auto problem_start = Clock::now();
+      OptimisationReport report;
+      report.problem = name;
+      say(report.problem + ": start, cost " + FormatNumber(initial_cost) + ", rotation pivot (lidar frame, m) " +
+          FormatVector(nelder_mead.pivot_source));
+      report.stages = MinimiseCoarseToFine(cost, prepare, nelder_mead, options.stages,
+                                           options.restart_min_improvement, transform, stop_requested);
+      for (const auto& stage : report.stages) report.evaluations += stage.evaluations;
+      report.seconds = SecondsSince(problem_start);
+      say(report.problem + ": " + StagesBrief(report.stages) + ", cost " +
+          (report.stages.empty() ? std::string("-") : FormatNumber(report.stages.back().final_value)) + ", " +
+          FormatNumber(report.seconds) + " s");
+      terminations.push_back(report.problem + ": " + StagesBrief(report.stages));
+      outcome.optimisations.push_back(report);
+    };
     if (options.scheme == CalibrationScheme::kJoint) {
       std::vector<const PairCost*> pairs;
       for (const auto& pair : problem.pairs) pairs.push_back(pair.get());
       Eigen::Isometry3d T_base_lidar = lidar.T_base_lidar;
-      const auto problem_start = Clock::now();
-      OptimisationReport report;
-      report.problem = "joint " + lidar.name;
       NelderMeadOptions nelder_mead = options.nelder_mead;
       if (options.pivot_at_observed_centroid) {
         Eigen::Vector3d sum = Eigen::Vector3d::Zero();
@@ -358,21 +376,13 @@ CalibrationOutcome Calibrate(const CalibrationInput& input, const CalibrationOpt
         }
         if (count > 0) nelder_mead.pivot_source = sum / static_cast<double>(count);
       }
-      say(report.problem + ": start, cost " + FormatNumber(EvaluateJoint(pairs, T_base_lidar)) +
-          ", rotation pivot (lidar frame, m) " + FormatVector(nelder_mead.pivot_source));
-      report.stages = MinimiseCoarseToFine(
+      optimise(
+          "joint " + lidar.name, EvaluateJoint(pairs, T_base_lidar), nelder_mead,
           [&](const Eigen::Isometry3d& T) { return EvaluateJoint(pairs, T); },
           [&](const OptimisationStage& stage, const Eigen::Isometry3d& T) {
             for (auto& pair : problem.pairs) PreparePairForStage(*pair, stage, pair->Camera().T_base_camera.inverse() * T);
           },
-          nelder_mead, options.stages, options.restart_min_improvement, &T_base_lidar, stop_requested);
-      for (const auto& stage : report.stages) report.evaluations += stage.evaluations;
-      report.seconds = SecondsSince(problem_start);
-      say(report.problem + ": " + StagesBrief(report.stages) + ", cost " +
-          (report.stages.empty() ? std::string("-") : FormatNumber(report.stages.back().final_value)) + ", " +
-          FormatNumber(report.seconds) + " s");
-      terminations.push_back(report.problem + ": " + StagesBrief(report.stages));
-      outcome.optimisations.push_back(report);
+          &T_base_lidar);
       for (std::size_t p = 0; p < problem.pairs.size(); ++p) {
         T_camera_lidar[p] = problem.pairs[p]->Camera().T_base_camera.inverse() * T_base_lidar;
         solved[p] = true;
@@ -386,30 +396,17 @@ CalibrationOutcome Calibrate(const CalibrationInput& input, const CalibrationOpt
                                     ": no usable scene at the initial guess; pair left out");
           continue;
         }
-        const auto problem_start = Clock::now();
-        OptimisationReport report;
-        report.problem = "once " + pair.Camera().name + "/" + lidar.name;
         NelderMeadOptions nelder_mead = options.nelder_mead;
         if (options.pivot_at_observed_centroid) {
           std::size_t count = 0;
           const Eigen::Vector3d sum = pair.SumProjectedLidarPoints(T_camera_lidar[p], &count);
           if (count > 0) nelder_mead.pivot_source = sum / static_cast<double>(count);
         }
-        say(report.problem + ": start, cost " + FormatNumber(initial_costs[p]) + ", rotation pivot (lidar frame, m) " +
-            FormatVector(nelder_mead.pivot_source));
-        report.stages = MinimiseCoarseToFine([&](const Eigen::Isometry3d& T) { return pair.Evaluate(T); },
-                                             [&](const OptimisationStage& stage, const Eigen::Isometry3d& T) {
-                                               PreparePairForStage(pair, stage, T);
-                                             },
-                                             nelder_mead, options.stages, options.restart_min_improvement,
-                                             &T_camera_lidar[p], stop_requested);
-        for (const auto& stage : report.stages) report.evaluations += stage.evaluations;
-        report.seconds = SecondsSince(problem_start);
-        say(report.problem + ": " + StagesBrief(report.stages) + ", cost " +
-            (report.stages.empty() ? std::string("-") : FormatNumber(report.stages.back().final_value)) + ", " +
-            FormatNumber(report.seconds) + " s");
-        terminations.push_back(report.problem + ": " + StagesBrief(report.stages));
-        outcome.optimisations.push_back(report);
+        optimise(
+            "once " + pair.Camera().name + "/" + lidar.name, initial_costs[p], nelder_mead,
+            [&](const Eigen::Isometry3d& T) { return pair.Evaluate(T); },
+            [&](const OptimisationStage& stage, const Eigen::Isometry3d& T) { PreparePairForStage(pair, stage, T); },
+            &T_camera_lidar[p]);
         solved[p] = true;
       }
     }
