@@ -21,6 +21,7 @@
 #include "core/geometry.hpp"
 #include "io/dataset.hpp"
 #include "sim/simulator.hpp"
+#include "support/small_dataset.hpp"
 
 namespace scenecal {
 namespace {
@@ -33,48 +34,14 @@ class CalibrateOnSimulation : public ::testing::Test {
     root_ = fs::temp_directory_path() / ("scenecal_test_calibrate_" + std::to_string(::getpid()));
     fs::remove_all(root_);
     fs::create_directories(root_);
-    sim::SimulationOptions options;
-    options.seed = 1;
-    options.distance_m = 120.0;
-    options.image_width = 480;
-    options.image_height = 360;
-    options.image_rate_hz = 1.0;
-    options.odometry_noise = 0.0;
-    options.perturb_translation_m = 0.05;
-    options.perturb_rotation_deg = 2.0;
-    sim::Simulate(options, root_ / "robotcar");
+    test::SimulateSmallRobotCar(root_ / "robotcar");
   }
   static void TearDownTestSuite() { fs::remove_all(root_); }
 
   static fs::path DatasetPath() { return root_ / "robotcar"; }
 
-  // Selects scenes and loads what they use (what `scenecal calibrate` does).
   static CalibrationInput Load(const io::Dataset& dataset, const SceneOptions& scene_options) {
-    std::map<std::string, std::vector<TimeUs>> image_times, scan_times;
-    for (const auto& [camera, files] : dataset.images) {
-      for (const auto& f : files) image_times[camera].push_back(f.t_us);
-    }
-    for (const auto& [lidar, files] : dataset.scans) {
-      for (const auto& f : files) scan_times[lidar].push_back(f.t_us);
-    }
-    CalibrationInput input;
-    input.rig = dataset.rig;
-    input.selection = SelectScenes(dataset.rig, dataset.trajectory, image_times, scan_times, scene_options);
-    for (const Scene& scene : input.selection.scenes) {
-      for (const auto& f : dataset.images.at(scene.camera)) {
-        if (f.t_us == scene.image_t_us) {
-          input.images[scene.camera][f.t_us] = io::ReadImage(f, dataset.rig.FindCamera(scene.camera)->model);
-        }
-      }
-      std::set<TimeUs> needed;
-      for (const SwatheScan& scan : scene.scans) needed.insert(scan.t_us);
-      for (const auto& f : dataset.scans.at(scene.lidar)) {
-        if (needed.count(f.t_us) != 0 && input.scans[scene.lidar].count(f.t_us) == 0) {
-          input.scans[scene.lidar][f.t_us] = io::ReadScan(f);
-        }
-      }
-    }
-    return input;
+    return test::LoadCalibrationInput(dataset, scene_options);
   }
 
   static fs::path root_;

@@ -129,6 +129,9 @@ YAML::Node HistoryYaml(const AlternatingResult& details, const AlternatingProble
       pair["upper_T_camera_lidar"] = tuple(record.T_camera_lidar_upper[p]);
       pair["lower_cost"] = record.lower_cost[p];
       pair["evaluations"] = record.lower_evaluations[p];
+      // lbfgs: how many of them also computed the gradient (each ~kGradientEvaluationCost plain ones).
+      if (p < record.lower_gradient_evaluations.size() && record.lower_gradient_evaluations[p] > 0)
+        pair["gradient_evaluations"] = record.lower_gradient_evaluations[p];
       pairs.push_back(pair);
     }
     entry["pairs"] = pairs;

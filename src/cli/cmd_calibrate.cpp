@@ -21,6 +21,7 @@
 #include "cli/commands.hpp"
 #include "cli/load_input.hpp"
 #include "cli/report_writer.hpp"
+#include "cli/uncertainty_report.hpp"
 #include "core/calibrate.hpp"
 #include "core/geometry.hpp"
 #include "io/dataset.hpp"
@@ -38,7 +39,11 @@ struct CalibrateArguments {
   double swathe_length_m = 10.0;
   std::string direction = "forward";
   int bins = 32;
+  bool bins_given = false;  // --bins on the command line (else single-frame 3D data gets its own default)
   std::string binning = "hard";
+  bool binning_given = false;  // --binning on the command line (else lbfgs switches to bspline)
+  std::string lower_solver = "simplex";
+  int lbfgs_iterations = 100;
   std::string normalise_reflectance = "rank";
   std::string normalise_intensity = "none";
   int threads = 0;
@@ -58,6 +63,7 @@ struct CalibrateArguments {
   double perturb_rotation_deg = 0.0;
   bool perturb_from_truth = false;
   std::string report_dir;  // --report: HTML report directory; empty = none
+  bool no_uncertainty = false;  // --no-uncertainty: skip the uncertainty estimate
   AlternatingArguments alternating;  // --scheme alt
 };
 
@@ -83,6 +89,17 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
   options.cost.histogram.reflectance_bins = args.bins;
   options.cost.histogram.intensity_bins = args.bins;
   options.cost.histogram.binning = *ParseBinning(args.binning);
+  ParseLowerSolver(args.lower_solver, &options.lower_solver);
+  if (options.lower_solver == LowerSolver::kLbfgs) {
+    if (!args.binning_given) {
+      options.cost.histogram.binning = Binning::kBSpline;  // gradients need it; recorded in the result's settings
+    } else if (options.cost.histogram.binning != Binning::kBSpline) {
+      spdlog::error("--lower-solver lbfgs needs --binning bspline: with --binning {} the cost is piecewise constant "
+                    "and has no gradient (use --lower-solver simplex for hard binning)",
+                    args.binning);
+      return kExitInvalidInput;
+    }
+  }
   options.cost.min_points_per_scene = args.min_points;
   options.cost.swathe.occlusion = !args.no_occlusion;
   options.pivot_at_observed_centroid = args.rotation_pivot == "centroid";
@@ -97,6 +114,9 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
   options.nelder_mead.max_iterations = args.max_iterations;
   options.nelder_mead.initial_step_translation_m = args.step_translation_m;
   options.nelder_mead.initial_step_rotation_rad = RadiansFromDegrees(args.step_rotation_deg);
+  options.gradient.max_iterations = args.lbfgs_iterations;
+  options.gradient.initial_step_translation_m = args.step_translation_m;
+  options.gradient.initial_step_rotation_rad = RadiansFromDegrees(args.step_rotation_deg);
   if (!ParseStageSchedule(args.stages, &options.stages)) {
     spdlog::error("--stages: expected comma-separated SCALE[:BLUR[:RESTARTS]] entries, got '{}'", args.stages);
     return kExitInvalidInput;
@@ -121,6 +141,8 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
 
   spdlog::info("opening {}", args.dataset);
   const io::Dataset dataset = io::OpenDataset(args.dataset);
+  const std::string single_frame_defaults = ApplySingleFrameDefaults(dataset, args.bins_given, &options);
+  if (!single_frame_defaults.empty()) spdlog::info("single-frame 3D-lidar data: {}", single_frame_defaults);
 
   CalibrationInput input;
   input.rig = dataset.rig;
@@ -150,9 +172,18 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
   const double load_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   spdlog::info("loaded {} lidar points in {:.2f} s", loaded.lidar_points, load_s);
 
-  spdlog::info("calibrating: scheme {}, metric {}, {} bins {}, reflectance {}, stages {}, up to {} iterations a run",
-               args.scheme, args.metric, args.bins, args.binning, args.normalise_reflectance, args.stages,
-               args.max_iterations);
+  const bool lbfgs = options.lower_solver == LowerSolver::kLbfgs;
+  spdlog::info("calibrating: scheme {}, metric {}, {} bins {}, reflectance {}, stages {}, lower solver {}, up to {} "
+               "iterations a run",
+               args.scheme, args.metric, options.cost.histogram.reflectance_bins,
+               BinningName(options.cost.histogram.binning),
+               args.normalise_reflectance, args.stages, args.lower_solver,
+               lbfgs ? args.lbfgs_iterations : args.max_iterations);
+  if (lbfgs) {
+    spdlog::info("lbfgs: evaluations are counted with and without the gradient; one cost + gradient evaluation "
+                 "costs ~{} plain cost evaluations",
+                 kGradientEvaluationCost);
+  }
   CalibrationOutcome outcome;
   std::optional<AlternatingRun> alternating_run;
   if (options.scheme == CalibrationScheme::kAlt) {
@@ -184,21 +215,21 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
   }
   CalibrationResult& result = outcome.result;
   result.timings_s["load"] = load_s;
+  if (!single_frame_defaults.empty()) result.settings["single_frame_defaults"] = single_frame_defaults;
   if (args.perturb_translation_m > 0.0 || args.perturb_rotation_deg > 0.0 || args.perturb_from_truth) {
     result.settings["perturb_initial"] =
         fmt::format("{} m, {} deg, seed {}, from {}", args.perturb_translation_m, args.perturb_rotation_deg, args.seed,
                     args.perturb_from_truth ? "truth" : "rig.yaml");
   }
+  YAML::Node extra(YAML::NodeType::Map);
+  if (!args.no_uncertainty) extra["uncertainty"] = ReportUncertainty(input, options, &result);
   result.timings_s["total"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   for (const std::string& warning : result.warnings) spdlog::warn("{}", warning);
   if (alternating_run) {
     // The per-alternation history (lower and upper solutions per pair) for the paper's Fig. 4 and 6.
-    YAML::Node extra;
     extra["history"] = HistoryYaml(alternating_run->details, alternating_run->problem);
-    io::WriteCalibrationResult(args.output, result, extra);
-  } else {
-    io::WriteCalibrationResult(args.output, result);
   }
+  io::WriteCalibrationResult(args.output, result, extra);
   spdlog::info("wrote {} ({})", args.output, result.termination);
   if (!args.report_dir.empty()) {
     WriteCalibrationReport(args.report_dir, input, options, outcome, alternating_run ? &*alternating_run : nullptr,
@@ -283,11 +314,32 @@ CommandRunner AddCalibrateCommand(CLI::App& app) {
                       "Swathe window: forward (the L m after the frame), backward (before), both (L m each side)")
       ->check(CLI::IsMember({"forward", "backward", "both"}))
       ->capture_default_str();
-  command->add_option("--bins", args->bins, "Histogram bins per variable (reflectance and intensity)")
-      ->check(CLI::Range(2, 512))
+  CLI::Option* bins_option =
+      command
+          ->add_option("--bins", args->bins,
+                       "Histogram bins per variable (reflectance and intensity). Default: 32, but " +
+                           std::to_string(kSingleFrameBins) +
+                           " on single-frame 3D-lidar data (a static dataset, e.g. from import opencalib)")
+          ->check(CLI::Range(2, 512))
+          ->capture_default_str();
+  CLI::Option* binning_option =
+      command
+          ->add_option("--binning", args->binning,
+                       "hard (one bin per sample) or bspline (cubic B-spline Parzen window, smooth). Default: hard, "
+                       "but bspline with --lower-solver lbfgs")
+          ->check(CLI::IsMember({"hard", "bspline"}))
+          ->capture_default_str();
+  command->add_option("--lower-solver", args->lower_solver,
+                      "Local optimiser of every stage (once, joint) and of the alt lower level: simplex (Nelder-Mead, "
+                      "the paper; derivative free, any binning) or lbfgs (quasi-Newton with analytic gradients of the "
+                      "B-spline metric: far fewer cost evaluations; needs --binning bspline, which it selects when "
+                      "--binning is not given)")
+      ->check(CLI::IsMember({"simplex", "lbfgs"}))
       ->capture_default_str();
-  command->add_option("--binning", args->binning, "hard (one bin per sample) or bspline (cubic B-spline Parzen window)")
-      ->check(CLI::IsMember({"hard", "bspline"}))
+  command->add_option("--lbfgs-iterations", args->lbfgs_iterations,
+                      "--lower-solver lbfgs: iterations per run (per stage, per alt lower level); --step-translation "
+                      "and --step-rotation set its parameter scales")
+      ->check(CLI::Range(1, 1000000))
       ->capture_default_str();
   command->add_option("--normalise", args->normalise_reflectance,
                       "Mapping of lidar reflectance to [0, 1] per scene: none, minmax (1st..99th percentile), rank "
@@ -319,7 +371,8 @@ CommandRunner AddCalibrateCommand(CLI::App& app) {
                       "Wall-clock budget of the optimisation in seconds; 0 = none. The best point so far is kept.")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
-  command->add_option("--max-iterations", args->max_iterations, "Nelder-Mead iterations per stage")
+  command->add_option("--max-iterations", args->max_iterations,
+                      "Nelder-Mead iterations per run (per stage; per alt lower level)")
       ->check(CLI::Range(1, 1000000))
       ->capture_default_str();
   command->add_option("--stages", args->stages,
@@ -328,10 +381,12 @@ CommandRunner AddCalibrateCommand(CLI::App& app) {
                       "width), RESTARTS the extra Nelder-Mead runs while the cost still improves. Images and "
                       "visibility are refreshed before each stage. '1' = one plain run (the paper).")
       ->capture_default_str();
-  command->add_option("--step-translation", args->step_translation_m, "Initial simplex step, metres (first stage)")
+  command->add_option("--step-translation", args->step_translation_m,
+                      "Initial simplex step (lbfgs: parameter scale), metres (first stage)")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
-  command->add_option("--step-rotation", args->step_rotation_deg, "Initial simplex step, degrees (first stage)")
+  command->add_option("--step-rotation", args->step_rotation_deg,
+                      "Initial simplex step (lbfgs: parameter scale), degrees (first stage)")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
   command->add_option("--min-points", args->min_points,
@@ -358,6 +413,9 @@ CommandRunner AddCalibrateCommand(CLI::App& app) {
                       "centroid of the lidar points seen at the initial guess)")
       ->check(CLI::IsMember({"origin", "centroid"}))
       ->capture_default_str();
+  command->add_flag("--no-uncertainty", args->no_uncertainty,
+                    "Skip the uncertainty estimate after the calibration (by default each lidar gets a 1-sigma per "
+                    "parameter, or a warning naming the directions the data do not determine; a few seconds)");
   command->add_option("--report", args->report_dir,
                       "Write an HTML report with convergence, cost slices and overlays into this directory "
                       "(report.html and PNGs)");
@@ -396,7 +454,11 @@ CommandRunner AddCalibrateCommand(CLI::App& app) {
                       "alt: the same for rotation, degrees")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
-  return [args] { return Run(*args); };
+  return [args, binning_option, bins_option] {
+    args->binning_given = binning_option->count() > 0;
+    args->bins_given = bins_option->count() > 0;
+    return Run(*args);
+  };
 }
 
 }  // namespace scenecal::cli

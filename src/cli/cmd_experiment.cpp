@@ -53,6 +53,7 @@ struct ExperimentArguments {
   std::string image_size;     // WxH; empty: the simulator's default
   double distance_m = 380.0;  // simulated drive length
   int max_iterations = 200;
+  std::string lower_solver = "simplex";  // lbfgs: B-spline binning for every run
   std::string stages = "1:0.004:2,0.3:0.0015:1,0.1:0:1";
   double swathe_length_m = 10.0;
   int overlay_scenes = 1;
@@ -228,6 +229,13 @@ int RunExperiment(const ExperimentArguments& args) {
   options.nelder_mead.max_iterations = args.max_iterations;
   options.nelder_mead.initial_step_translation_m = 0.05;
   options.nelder_mead.initial_step_rotation_rad = RadiansFromDegrees(1.0);
+  ParseLowerSolver(args.lower_solver, &options.lower_solver);
+  if (options.lower_solver == LowerSolver::kLbfgs) {
+    // Gradients exist only for the smooth (B-spline) histogram.
+    options.cost.histogram.binning = Binning::kBSpline;
+    options.gradient.initial_step_translation_m = options.nelder_mead.initial_step_translation_m;
+    options.gradient.initial_step_rotation_rad = options.nelder_mead.initial_step_rotation_rad;
+  }
   options.threads = args.threads;
   options.seed = args.seed;
   if (!ParseStageSchedule(args.stages, &options.stages)) {
@@ -443,7 +451,12 @@ int RunExperiment(const ExperimentArguments& args) {
   data.settings["scenes per camera"] = std::to_string(args.scenes);
   data.settings["swathe length"] = fmt::format("{} m", args.swathe_length_m);
   data.settings["alternations (alt)"] = std::to_string(args.alternations);
-  data.settings["Nelder-Mead iterations per stage"] = std::to_string(args.max_iterations);
+  data.settings["lower solver"] = args.lower_solver + " (" + BinningName(options.cost.histogram.binning) + " binning)";
+  if (options.lower_solver == LowerSolver::kLbfgs) {
+    data.settings["L-BFGS iterations per run"] = std::to_string(options.gradient.max_iterations);
+  } else {
+    data.settings["Nelder-Mead iterations per stage"] = std::to_string(args.max_iterations);
+  }
   data.settings["stages"] = args.stages;
   data.settings["wall time"] = FormatDuration(elapsed_s());
 
@@ -548,6 +561,11 @@ CommandRunner AddExperimentCommand(CLI::App& app) {
       ->capture_default_str();
   command->add_option("--max-iterations", args->max_iterations, "Nelder-Mead iterations per stage (the paper: 200)")
       ->check(CLI::Range(1, 1000000))
+      ->capture_default_str();
+  command->add_option("--lower-solver", args->lower_solver,
+                      "Local optimiser of every run, as calibrate's --lower-solver: simplex (Nelder-Mead, hard "
+                      "binning) or lbfgs (analytic gradients; every run then uses B-spline binning)")
+      ->check(CLI::IsMember({"simplex", "lbfgs"}))
       ->capture_default_str();
   command->add_option("--stages", args->stages,
                       "Coarse-to-fine schedule, as calibrate's --stages (SCALE[:BLUR[:RESTARTS]],...)")

@@ -65,6 +65,20 @@ LoadedScenes SelectAndLoadScenes(const io::Dataset& dataset, const SceneOptions&
   return loaded;
 }
 
+bool IsSingleFrame3d(const io::Dataset& dataset) {
+  if (dataset.trajectory.size() != 1 || dataset.rig.lidars.empty()) return false;
+  return std::all_of(dataset.rig.lidars.begin(), dataset.rig.lidars.end(),
+                     [](const LidarInfo& lidar) { return lidar.kind == LidarKind::k3d; });
+}
+
+std::string ApplySingleFrameDefaults(const io::Dataset& dataset, bool bins_given, CalibrationOptions* options) {
+  if (!IsSingleFrame3d(dataset) || bins_given) return "";
+  options->cost.histogram.reflectance_bins = kSingleFrameBins;
+  options->cost.histogram.intensity_bins = kSingleFrameBins;
+  return "bins " + std::to_string(kSingleFrameBins) + "x" + std::to_string(kSingleFrameBins) +
+         " (single-frame 3D-lidar data: ~10^4 samples per histogram; --bins overrides)";
+}
+
 Eigen::Isometry3d PerturbExactly(const Eigen::Isometry3d& T, double translation_m, double rotation_deg,
                                  std::mt19937_64& rng) {
   std::normal_distribution<double> normal(0.0, 1.0);

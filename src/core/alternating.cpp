@@ -26,6 +26,7 @@ bool AlternatingOptions::IsValid(std::string* why) const {
   if (!(time_budget_s >= 0)) return fail("time budget must be non-negative");
   std::string lower_why;
   if (!lower.IsValid(&lower_why)) return fail("lower level: " + lower_why);
+  if (!lower_gradient.IsValid(&lower_why)) return fail("lower level (lbfgs): " + lower_why);
   return true;
 }
 
@@ -46,18 +47,74 @@ bool AlternatingProblem::IsValid(std::string* why) const {
   return true;
 }
 
+namespace {
+
+// Central-difference steps (metres, radians) for the penalty and for costs
+// without an analytic gradient: the penalty is a smooth quadratic in the
+// logarithm, so truncation and rounding errors are both far below the
+// gradient's size at these steps.
+const Vector6d kDifferenceSteps = Vector6d::Constant(1e-6);
+
+LowerLevelOutcome SolveLowerLevelWithGradient(const PairObjective& objective, const LowerLevelTask& task,
+                                              const StopRequested& stop_requested) {
+  const Eigen::Isometry3d T_lidar_camera_upper = task.T_camera_lidar_upper.inverse();
+  const TransformUpdate update = task.options.transform_update;
+  const Eigen::Vector3d& pivot = task.options.pivot_source;
+  const auto penalty = [&](const Eigen::Isometry3d& T_camera_lidar) {
+    const Vector6d difference = LogSE3(T_camera_lidar * T_lidar_camera_upper);
+    return difference.dot(task.penalty_information * difference);
+  };
+  const CostWithGradient penalised = [&](const Eigen::Isometry3d& T_camera_lidar, Vector6d* gradient) {
+    if (gradient == nullptr) return objective.cost(T_camera_lidar) + penalty(T_camera_lidar);
+    Vector6d cost_gradient;
+    double cost = 0.0;
+    if (objective.cost_with_gradient) {
+      cost = objective.cost_with_gradient(T_camera_lidar, update, pivot, &cost_gradient);
+    } else {
+      cost = objective.cost(T_camera_lidar);
+      cost_gradient = CentralDifferenceGradient(objective.cost, T_camera_lidar, update, pivot, kDifferenceSteps);
+    }
+    *gradient = cost_gradient + CentralDifferenceGradient(penalty, T_camera_lidar, update, pivot, kDifferenceSteps);
+    return cost + penalty(T_camera_lidar);
+  };
+  GradientSolverOptions options = task.gradient;
+  options.transform_update = update;
+  options.pivot_source = pivot;
+  LowerLevelOutcome outcome;
+  outcome.T_camera_lidar = task.T_camera_lidar_start;
+  const GradientSolverSummary summary = MinimiseWithGradient(penalised, options, &outcome.T_camera_lidar, stop_requested);
+  outcome.summary.iterations = summary.iterations;
+  outcome.summary.evaluations = summary.evaluations;
+  outcome.summary.initial_value = summary.initial_value;
+  outcome.summary.final_value = summary.final_value;
+  outcome.summary.termination = summary.start_not_finite ? NelderMeadTermination::kNonFiniteCost
+                                : summary.stopped       ? NelderMeadTermination::kStopRequested
+                                : summary.converged     ? NelderMeadTermination::kFunctionTolerance
+                                                        : NelderMeadTermination::kMaxIterations;
+  outcome.gradient_evaluations = summary.gradient_evaluations;
+  outcome.objective = summary.start_not_finite ? objective.cost(outcome.T_camera_lidar) + penalty(outcome.T_camera_lidar)
+                                               : summary.final_value;
+  return outcome;
+}
+
+}  // namespace
+
 LowerLevelOutcome SolveLowerLevel(const PairObjective& objective, const LowerLevelTask& task,
                                   const StopRequested& stop_requested) {
   if (objective.prepare) objective.prepare(task.T_camera_lidar_start, task.alternation);
-  const Eigen::Isometry3d T_lidar_camera_upper = task.T_camera_lidar_upper.inverse();
-  const auto penalised = [&](const Eigen::Isometry3d& T_camera_lidar) {
-    const Vector6d difference = LogSE3(T_camera_lidar * T_lidar_camera_upper);
-    return objective.cost(T_camera_lidar) + difference.dot(task.penalty_information * difference);
-  };
   LowerLevelOutcome outcome;
-  outcome.T_camera_lidar = task.T_camera_lidar_start;
-  outcome.summary = MinimiseOverTransform(penalised, task.options, &outcome.T_camera_lidar, stop_requested);
-  outcome.objective = outcome.summary.final_value;
+  if (task.solver == LowerSolver::kLbfgs) {
+    outcome = SolveLowerLevelWithGradient(objective, task, stop_requested);
+  } else {
+    const Eigen::Isometry3d T_lidar_camera_upper = task.T_camera_lidar_upper.inverse();
+    const auto penalised = [&](const Eigen::Isometry3d& T_camera_lidar) {
+      const Vector6d difference = LogSE3(T_camera_lidar * T_lidar_camera_upper);
+      return objective.cost(T_camera_lidar) + difference.dot(task.penalty_information * difference);
+    };
+    outcome.T_camera_lidar = task.T_camera_lidar_start;
+    outcome.summary = MinimiseOverTransform(penalised, task.options, &outcome.T_camera_lidar, stop_requested);
+    outcome.objective = outcome.summary.final_value;
+  }
   outcome.cost = objective.cost(outcome.T_camera_lidar);
   return outcome;
 }
@@ -144,6 +201,12 @@ AlternatingResult SolveAlternating(const AlternatingProblem& problem, const Alte
       task.options.initial_step_translation_m =
           std::min(options.lower.initial_step_translation_m, record.sigma_translation_m);
       task.options.initial_step_rotation_rad = std::min(options.lower.initial_step_rotation_rad, record.sigma_rotation_rad);
+      task.solver = options.lower_solver;
+      task.gradient = options.lower_gradient;
+      task.gradient.initial_step_translation_m =
+          std::min(options.lower_gradient.initial_step_translation_m, record.sigma_translation_m);
+      task.gradient.initial_step_rotation_rad =
+          std::min(options.lower_gradient.initial_step_rotation_rad, record.sigma_rotation_rad);
     }
     const std::vector<LowerLevelOutcome> outcomes = backend.Solve(tasks, stop_requested);
     if (outcomes.size() != pair_count) {
@@ -158,6 +221,8 @@ AlternatingResult SolveAlternating(const AlternatingProblem& problem, const Alte
       lower_cost[p] = outcomes[p].cost;
       record.lower_evaluations.push_back(outcomes[p].summary.evaluations);
       result.total_evaluations += outcomes[p].summary.evaluations;
+      record.lower_gradient_evaluations.push_back(outcomes[p].gradient_evaluations);
+      result.total_gradient_evaluations += outcomes[p].gradient_evaluations;
     }
 
     // Upper level (eq. 14), per lidar, over the pairs of that lidar.

@@ -21,6 +21,7 @@
 #include <Eigen/Geometry>
 
 #include "core/geometry.hpp"
+#include "core/gradient_solver.hpp"
 #include "core/nelder_mead.hpp"
 
 namespace scenecal {
@@ -41,6 +42,14 @@ struct AlternatingOptions {
   // steps are capped by the current penalty sigma, so later alternations
   // search a neighbourhood of the size the penalty allows.
   NelderMeadOptions lower;
+  // The lower level's optimiser: the simplex (the paper) or L-BFGS. With
+  // L-BFGS, f's gradient comes from PairObjective::cost_with_gradient (central
+  // differences of f when it is empty) and the penalty's from central
+  // differences; lower_gradient's parameter scales are capped by the penalty
+  // sigma like the simplex steps, and its transform_update / pivot_source are
+  // those of `lower`.
+  LowerSolver lower_solver = LowerSolver::kSimplex;
+  GradientSolverOptions lower_gradient;
   // Used for the inter-camera term when the rig states no T_base_camera_sigma:
   // sub-millimetre factory calibration, as the paper assumes for the Bumblebee.
   double default_camera_sigma_translation_m = 0.0005;
@@ -59,14 +68,21 @@ struct LowerLevelTask {
   Eigen::Isometry3d T_camera_lidar_upper = Eigen::Isometry3d::Identity();  // T_pL, fixed
   Eigen::Isometry3d T_camera_lidar_start = Eigen::Isometry3d::Identity();  // where the simplex starts
   Matrix6d penalty_information = Matrix6d::Identity();    // (P^i)^-1
-  NelderMeadOptions options;
+  NelderMeadOptions options;                              // simplex; its transform_update/pivot_source for both
+  LowerSolver solver = LowerSolver::kSimplex;
+  GradientSolverOptions gradient;                         // lbfgs (transform_update/pivot_source unused)
 };
 
 struct LowerLevelOutcome {
   Eigen::Isometry3d T_camera_lidar = Eigen::Isometry3d::Identity();  // T^_pL
   double cost = 0.0;       // f_pL(T^) alone (NID or -MI)
   double objective = 0.0;  // f + penalty
+  // Simplex: its summary. L-BFGS: iterations, evaluations (all cost
+  // evaluations of f, with or without gradient), initial_value and
+  // final_value as for the simplex; termination kFunctionTolerance when a
+  // tolerance was met, kStopRequested, kNonFiniteCost, else kMaxIterations.
   NelderMeadSummary summary;
+  int gradient_evaluations = 0;  // lbfgs: evaluations of f that also computed its gradient
 };
 
 // Solves a batch of lower-level problems (one per pair), in any order or place,
@@ -84,9 +100,16 @@ class LowerLevelBackend {
 struct PairObjective {
   std::function<double(const Eigen::Isometry3d& T_camera_lidar)> cost;
   std::function<void(const Eigen::Isometry3d& T_camera_lidar, int alternation)> prepare;  // may be empty
+  // f and its gradient with respect to the local update (update kind, pivot in
+  // the lidar frame) of T_camera_lidar, for the lbfgs lower level; may be
+  // empty (then central differences of cost).
+  std::function<double(const Eigen::Isometry3d& T_camera_lidar, TransformUpdate update,
+                       const Eigen::Vector3d& pivot_lidar, Vector6d* gradient)>
+      cost_with_gradient;
 };
 
-// f + |T^ (-) T_upper|^2_P, minimised by Nelder-Mead from task.T_camera_lidar_start.
+// f + |T^ (-) T_upper|^2_P, minimised from task.T_camera_lidar_start by
+// Nelder-Mead or L-BFGS (task.solver).
 LowerLevelOutcome SolveLowerLevel(const PairObjective& objective, const LowerLevelTask& task,
                                   const StopRequested& stop_requested);
 
@@ -135,6 +158,7 @@ struct AlternationRecord {
   std::vector<Eigen::Isometry3d> T_camera_lidar_upper;  // per pair, after the upper level
   std::vector<double> lower_cost;                       // f_p at the lower solution, per pair
   std::vector<int> lower_evaluations;                   // cost evaluations, per pair
+  std::vector<int> lower_gradient_evaluations;          // lbfgs: of which with the gradient, per pair
   std::vector<double> upper_cost;                       // upper-level objective, per lidar
   double max_change_translation_m = 0.0;                // largest move of either level since the last alternation
   double max_change_rotation_rad = 0.0;
@@ -151,6 +175,7 @@ struct AlternatingResult {
   std::vector<AlternationRecord> history;
   int alternations = 0;
   int total_evaluations = 0;
+  int total_gradient_evaluations = 0;  // lbfgs: evaluations that also computed the gradient
   std::string termination;  // "converged ...", "max alternations", "time budget ..." or an error
   bool success = false;
 };

@@ -6,9 +6,10 @@
 //           over all cameras, through the fixed known T_base_camera.
 //   alt   - the paper's alternating scheme (core/alternating.*; dispatched here
 //           when available).
-// Each optimisation runs a coarse-to-fine schedule: Nelder-Mead restarted
-// from the best point with smaller initial steps, the visibility masks
-// refreshed before every stage (never inside one).
+// Each optimisation runs a coarse-to-fine schedule: the lower solver
+// (Nelder-Mead, or L-BFGS with analytic gradients: options.lower_solver)
+// restarted from the best point with smaller initial steps, the visibility
+// masks refreshed before every stage (never inside one).
 //
 // Core rules: no files, no printing; progress goes to a callback and data
 // that cannot be calibrated is a status with the reason, not an exception.
@@ -25,6 +26,7 @@
 #include <Eigen/Geometry>
 
 #include "core/calibration_result.hpp"
+#include "core/gradient_solver.hpp"
 #include "core/metric.hpp"
 #include "core/nelder_mead.hpp"
 #include "core/normalisation.hpp"
@@ -60,6 +62,15 @@ struct CalibrationOptions {
   // Coarse-to-fine schedule (one entry with scale 1, no blur and no restarts
   // = a single Nelder-Mead run, the paper).
   std::vector<OptimisationStage> stages = DefaultStages();
+  // Local optimiser of every stage (once, joint) and of the alt lower level.
+  // kLbfgs needs B-spline binning (cost.histogram.binning): IsValid says so.
+  LowerSolver lower_solver = LowerSolver::kSimplex;
+  // kLbfgs: iterations per run, tolerances and the parameter scales of the
+  // first stage (the scales are multiplied by each stage's step_scale, as the
+  // simplex steps are; the alt lower level caps them by the penalty sigma).
+  // Its transform_update and pivot_source are taken from nelder_mead's and the
+  // rotation pivot option, so both solvers search the same parameterisation.
+  GradientSolverOptions gradient;
   int threads = 0;           // worker threads for TBB; 0 = all hardware threads
   std::uint64_t seed = 1;    // recorded; the pipeline is deterministic (no random choices)
   double time_budget_s = 0;  // wall-clock budget of Calibrate (from its start); 0 = none. Best point so far kept.
@@ -112,8 +123,11 @@ struct PairReport {
 
 struct OptimisationReport {
   std::string problem;  // e.g. "joint rear" or "once left/rear"
-  std::vector<NelderMeadSummary> stages;
-  int evaluations = 0;
+  LowerSolver solver = LowerSolver::kSimplex;
+  std::vector<NelderMeadSummary> stages;             // simplex: one summary per run
+  std::vector<GradientSolverSummary> gradient_runs;  // lbfgs: one summary per run
+  int evaluations = 0;           // cost evaluations (lbfgs: with or without the gradient)
+  int gradient_evaluations = 0;  // lbfgs: of which also computed the gradient
   double seconds = 0.0;
 };
 
@@ -145,6 +159,28 @@ std::vector<NelderMeadSummary> MinimiseCoarseToFine(
     const std::function<void(const OptimisationStage& stage, const Eigen::Isometry3d&)>& prepare,
     const NelderMeadOptions& options, const std::vector<OptimisationStage>& stages, double restart_min_improvement,
     Eigen::Isometry3d* transform, const StopRequested& stop_requested = {});
+
+// The same schedule with L-BFGS (MinimiseWithGradient) as the local solver:
+// the stage scales the parameter scales (options.initial_step_*) as it scales
+// the simplex steps; a run is restarted (fresh curvature memory) while it
+// still improves the cost by more than restart_min_improvement. Returns one
+// summary per run. Stops early when stop_requested returns true or the cost
+// cannot be evaluated at a run's start.
+std::vector<GradientSolverSummary> MinimiseCoarseToFineWithGradient(
+    const CostWithGradient& cost,
+    const std::function<void(const OptimisationStage& stage, const Eigen::Isometry3d&)>& prepare,
+    const GradientSolverOptions& options, const std::vector<OptimisationStage>& stages,
+    double restart_min_improvement, Eigen::Isometry3d* transform, const StopRequested& stop_requested = {});
+
+// What one cost + gradient evaluation costs in plain cost evaluations
+// (PairCost::EvaluateWithGradient against PairCost::Evaluate, B-spline NID),
+// measured with benchmarks/bench_cost.cpp (BM_EvaluateWithGradient against
+// BM_Evaluate, 1 thread, same data). For logs and the result's settings.
+extern const double kGradientEvaluationCost;
+
+// One line on a lower solver's evaluation count, e.g. "1234 cost evaluations"
+// or "321 cost evaluations (318 with gradient, each ~3.3 plain ones)".
+std::string DescribeEvaluations(LowerSolver solver, int evaluations, int gradient_evaluations);
 
 // The settings every scheme records in the result (scheme, metric, bins, scenes, ...).
 void RecordCommonSettings(const CalibrationOptions& options, CalibrationResult* result);

@@ -50,6 +50,8 @@ int FirstAlternationOfLastStage(const std::vector<OptimisationStage>& stages, in
 AlternatingOptions DefaultAlternatingOptions(const CalibrationOptions& options) {
   AlternatingOptions alternating;
   alternating.lower = options.nelder_mead;
+  alternating.lower_solver = options.lower_solver;
+  alternating.lower_gradient = options.gradient;
   alternating.time_budget_s = options.time_budget_s;
   alternating.min_alternations = FirstAlternationOfLastStage(options.stages, alternating.max_alternations) + 1;
   return alternating;
@@ -62,6 +64,10 @@ std::vector<PairObjective> AlternatingSetup::Objectives(const CalibrationOptions
     PairCost* cost = owned.get();
     PairObjective objective;
     objective.cost = [cost](const Eigen::Isometry3d& T_camera_lidar) { return cost->Evaluate(T_camera_lidar); };
+    objective.cost_with_gradient = [cost](const Eigen::Isometry3d& T_camera_lidar, TransformUpdate update,
+                                          const Eigen::Vector3d& pivot_lidar, Vector6d* gradient) {
+      return cost->EvaluateWithGradient(T_camera_lidar, update, pivot_lidar, gradient);
+    };
     const std::vector<OptimisationStage> stages = options.stages;
     const int max_alternations = alternating.max_alternations;
     objective.prepare = [cost, stages, max_alternations](const Eigen::Isometry3d& T_camera_lidar, int alternation) {
@@ -94,6 +100,9 @@ std::uint64_t AlternatingSetup::Fingerprint(const CalibrationOptions& options,
   digest.Add(static_cast<std::uint64_t>(options.cost.metric));
   digest.Add(static_cast<std::uint64_t>(options.cost.histogram.binning));
   digest.Add(static_cast<std::uint64_t>(options.nelder_mead.max_iterations));
+  digest.Add(static_cast<std::uint64_t>(alternating.lower_solver));
+  digest.Add(static_cast<std::uint64_t>(alternating.lower_gradient.max_iterations));
+  digest.Add(alternating.lower_gradient.function_tolerance);
   digest.Add(static_cast<std::uint64_t>(alternating.max_alternations));
   digest.Add(alternating.covariance_shrink);
   digest.Add(alternating.initial_sigma_translation_m);
@@ -179,16 +188,27 @@ CalibrationOutcome FinishAlternating(AlternatingSetup& setup, const AlternatingR
   }
   OptimisationReport optimisation;
   optimisation.problem = "alt";
+  optimisation.solver = alternating.lower_solver;
   optimisation.evaluations = solved.total_evaluations;
+  optimisation.gradient_evaluations = solved.total_gradient_evaluations;
   optimisation.seconds = solved.history.empty() ? 0.0 : solved.history.back().elapsed_s;
   outcome.optimisations.push_back(optimisation);
 
   RecordCommonSettings(options, &result);
   result.settings["scheme"] = "alt";  // also when called with another options.scheme
-  result.settings["lower_level"] = "Nelder-Mead, " + std::to_string(alternating.lower.max_iterations) +
-                                   " iterations, initial steps min(" + Number(alternating.lower.initial_step_translation_m) +
-                                   " m, " + Number(alternating.lower.initial_step_rotation_rad) +
-                                   " rad; penalty sigma)";
+  if (alternating.lower_solver == LowerSolver::kLbfgs) {
+    result.settings["lower_level"] =
+        "L-BFGS (analytic gradient of f, central differences of the penalty), at most " +
+        std::to_string(alternating.lower_gradient.max_iterations) + " iterations, parameter scales min(" +
+        Number(alternating.lower_gradient.initial_step_translation_m) + " m, " +
+        Number(alternating.lower_gradient.initial_step_rotation_rad) + " rad; penalty sigma), function tolerance " +
+        Number(alternating.lower_gradient.function_tolerance);
+  } else {
+    result.settings["lower_level"] = "Nelder-Mead, " + std::to_string(alternating.lower.max_iterations) +
+                                     " iterations, initial steps min(" +
+                                     Number(alternating.lower.initial_step_translation_m) + " m, " +
+                                     Number(alternating.lower.initial_step_rotation_rad) + " rad; penalty sigma)";
+  }
   result.settings["alternations_max"] = std::to_string(alternating.max_alternations);
   result.settings["penalty_sigma0"] = Number(alternating.initial_sigma_translation_m) + " m, " +
                                       Number(alternating.initial_sigma_rotation_rad) + " rad";
@@ -204,7 +224,8 @@ CalibrationOutcome FinishAlternating(AlternatingSetup& setup, const AlternatingR
   result.settings["stages"] = stages + " (spread over the alternations)";
   result.settings["time_budget_s"] = Number(alternating.time_budget_s);
   result.termination = "alt " + std::string(MetricKindName(options.cost.metric)) + ": " + solved.termination + ", " +
-                       std::to_string(solved.total_evaluations) + " cost evaluations";
+                       DescribeEvaluations(alternating.lower_solver, solved.total_evaluations,
+                                           solved.total_gradient_evaluations);
   result.warnings = setup.warnings;
   (void)input;
   return outcome;

@@ -8,10 +8,16 @@
 // the simplex, [rho; phi] in metres and radians along the target frame's
 // axes), scaled per axis by the typical steps (initial_step_*), so that the
 // problem is well conditioned for the line search.
+//
+// Also here: the choice of lower-level solver the schemes share, the joint
+// cost's gradient with respect to T_base_lidar (chain rule through the known
+// camera transforms) and a central-difference gradient for costs that have
+// no analytic one.
 #pragma once
 
 #include <functional>
 #include <string>
+#include <vector>
 
 #include <Eigen/Geometry>
 
@@ -21,6 +27,13 @@
 namespace scenecal {
 
 class PairCost;
+
+// The local (lower-level) optimiser of every scheme: the paper's simplex
+// (Nelder-Mead, derivative free, any binning) or L-BFGS with analytic
+// gradients (B-spline binning only: hard-binned costs are piecewise constant).
+enum class LowerSolver { kSimplex, kLbfgs };
+const char* LowerSolverName(LowerSolver solver);                        // "simplex", "lbfgs"
+bool ParseLowerSolver(const std::string& name, LowerSolver* solver);  // inverse; false if unknown
 
 struct GradientSolverOptions {
   int max_iterations = 100;
@@ -34,34 +47,69 @@ struct GradientSolverOptions {
   double initial_step_rotation_rad = 0.02;
   TransformUpdate transform_update = TransformUpdate::kAboutSourcePoint;
   Eigen::Vector3d pivot_source = Eigen::Vector3d::Zero();  // q of kAboutSourcePoint, metres in frame b
+  int lbfgs_rank = 20;  // curvature pairs kept (Ceres' max_lbfgs_rank)
+  // Scale the initial inverse Hessian by an estimate of its eigenvalue (Ceres'
+  // use_approximate_eigenvalue_bfgs_scaling). Needed on NID: see the .cpp.
+  bool approximate_eigenvalue_scaling = true;
 
   bool IsValid(std::string* why = nullptr) const;
 };
 
 struct GradientSolverSummary {
   int iterations = 0;
-  int evaluations = 0;  // cost + gradient evaluations
+  int evaluations = 0;           // cost evaluations, with or without the gradient
+  int gradient_evaluations = 0;  // of which also computed the gradient (nearly all: Wolfe line search)
   double initial_value = 0.0;
   double final_value = 0.0;
-  bool converged = false;      // a tolerance was met (not the iteration cap, not a failure)
-  std::string termination;     // Ceres' message
+  bool converged = false;       // a tolerance was met (not the iteration cap, not a failure)
+  bool stopped = false;         // the caller's stop callback ended the run (e.g. time budget)
+  bool start_not_finite = false;  // the cost at the start could not be evaluated; nothing was done
+  std::string termination;      // Ceres' message
   double time_s = 0.0;
 
   std::string BriefReport() const;
 };
 
-// Cost at T and its gradient with respect to the local update delta at
-// delta = 0 (ApplyTransformUpdate(T, delta, update, pivot_source)); return a
-// non-finite cost when it cannot be evaluated.
+// Cost at T and, when gradient is not null, its gradient with respect to the
+// local update delta at delta = 0 (ApplyTransformUpdate(T, delta, update,
+// pivot_source)); return a non-finite cost when it cannot be evaluated.
 using CostWithGradient = std::function<double(const Eigen::Isometry3d& T, Vector6d* gradient)>;
 
-// Minimises cost over T starting at *transform; *transform receives the best transform found.
+// Minimises cost over T starting at *transform; *transform receives the best
+// transform found. stop_requested is polled once per iteration.
 GradientSolverSummary MinimiseWithGradient(const CostWithGradient& cost, const GradientSolverOptions& options,
-                                           Eigen::Isometry3d* transform);
+                                           Eigen::Isometry3d* transform, const StopRequested& stop_requested = {});
 
 // The pair cost over T_camera_lidar (options.transform_update and pivot_source
 // are passed to PairCost::EvaluateWithGradient). Use B-spline binning.
 GradientSolverSummary MinimiseWithGradient(const PairCost& cost, const GradientSolverOptions& options,
-                                           Eigen::Isometry3d* T_camera_lidar);
+                                           Eigen::Isometry3d* T_camera_lidar,
+                                           const StopRequested& stop_requested = {});
+
+// The gradient of a pair cost with respect to the local update of
+// T_base_lidar, from its gradient with respect to the local update of
+// T_camera_lidar = T_base_camera^-1 * T_base_lidar (same update kind; the
+// pivot of kAboutSourcePoint is a lidar-frame point, the same for both):
+//   kAboutSourcePoint: delta_camera = [R_cb rho; R_cb phi]  =>  g_base = [R_cb^T g_rho; R_cb^T g_phi]
+//   kLeftTwist:        delta_camera = Ad(T_cb) delta_base    =>  g_base = Ad(T_cb)^T g_camera
+// with T_cb = T_base_camera^-1 and Ad(T) = [R, [t]x R; 0, R] for [rho; phi].
+Vector6d BaseGradientFromCameraGradient(const Eigen::Isometry3d& T_base_camera, TransformUpdate update,
+                                        const Vector6d& gradient_camera);
+
+// The `joint` cost (EvaluateJoint, core/pair_cost.hpp: the mean over the pairs
+// with a used scene of each pair's cost at T_base_camera^-1 * T_base_lidar)
+// and, when gradient is not null, its gradient with respect to the local
+// update of T_base_lidar (pivot_lidar: q of kAboutSourcePoint, metres in the
+// lidar frame). Same value as EvaluateJoint. NaN when no pair has a used scene.
+double EvaluateJointWithGradient(const std::vector<const PairCost*>& pairs, const Eigen::Isometry3d& T_base_lidar,
+                                 TransformUpdate update, const Eigen::Vector3d& pivot_lidar, Vector6d* gradient);
+
+// Central differences of cost along each axis of the local update at T:
+// (cost(T + h_k e_k) - cost(T - h_k e_k)) / 2 h_k, steps h in metres and
+// radians. For cheap smooth terms (the alt penalty) or costs without an
+// analytic gradient; 12 evaluations.
+Vector6d CentralDifferenceGradient(const std::function<double(const Eigen::Isometry3d&)>& cost,
+                                   const Eigen::Isometry3d& T, TransformUpdate update,
+                                   const Eigen::Vector3d& pivot_source, const Vector6d& steps);
 
 }  // namespace scenecal

@@ -14,8 +14,11 @@ namespace {
 constexpr int kRoot = 0;
 constexpr double kCommandFinish = 0.0;
 constexpr double kCommandSolve = 1.0;
-constexpr int kTaskDoubles = 2 + 16 + 16 + 36 + 7 + 4;
-constexpr int kOutcomeDoubles = 16 + 2 + 4 + 1;
+// pair, alternation, 2 transforms, penalty, simplex options (7 + update + pivot),
+// lower solver (1) and L-BFGS options (6).
+constexpr int kTaskDoubles = 2 + 16 + 16 + 36 + 7 + 4 + 7;
+// transform, cost, objective, summary (4 + termination), gradient evaluations.
+constexpr int kOutcomeDoubles = 16 + 2 + 4 + 1 + 1;
 
 void Check(int code, const char* what) {
   if (code != MPI_SUCCESS) throw std::runtime_error(std::string("MPI call failed: ") + what);
@@ -46,6 +49,11 @@ void EncodeTask(const LowerLevelTask& task, double* out) {
   out[78] = o.pivot_source.y();
   out[79] = o.pivot_source.z();
   out[80] = task.alternation;
+  out[81] = static_cast<double>(static_cast<int>(task.solver));
+  const GradientSolverOptions& g = task.gradient;
+  const double gradient[6] = {static_cast<double>(g.max_iterations), g.function_tolerance, g.gradient_tolerance,
+                              g.parameter_tolerance, g.initial_step_translation_m, g.initial_step_rotation_rad};
+  std::memcpy(out + 82, gradient, sizeof(gradient));
 }
 
 LowerLevelTask DecodeTask(const double* in) {
@@ -65,6 +73,17 @@ LowerLevelTask DecodeTask(const double* in) {
   o.transform_update = static_cast<TransformUpdate>(static_cast<int>(in[76]));
   o.pivot_source = Eigen::Vector3d(in[77], in[78], in[79]);
   task.alternation = static_cast<int>(in[80]);
+  task.solver = static_cast<LowerSolver>(static_cast<int>(in[81]));
+  GradientSolverOptions& g = task.gradient;
+  g.max_iterations = static_cast<int>(in[82]);
+  g.function_tolerance = in[83];
+  g.gradient_tolerance = in[84];
+  g.parameter_tolerance = in[85];
+  g.initial_step_translation_m = in[86];
+  g.initial_step_rotation_rad = in[87];
+  // The update kind and pivot are the simplex options' (SolveLowerLevel uses those for both solvers).
+  g.transform_update = o.transform_update;
+  g.pivot_source = o.pivot_source;
   return task;
 }
 
@@ -77,6 +96,7 @@ void EncodeOutcome(const LowerLevelOutcome& outcome, double* out) {
   out[20] = outcome.summary.initial_value;
   out[21] = outcome.summary.final_value;
   out[22] = static_cast<double>(static_cast<int>(outcome.summary.termination));
+  out[23] = outcome.gradient_evaluations;
 }
 
 LowerLevelOutcome DecodeOutcome(const double* in) {
@@ -89,6 +109,7 @@ LowerLevelOutcome DecodeOutcome(const double* in) {
   outcome.summary.initial_value = in[20];
   outcome.summary.final_value = in[21];
   outcome.summary.termination = static_cast<NelderMeadTermination>(static_cast<int>(in[22]));
+  outcome.gradient_evaluations = static_cast<int>(in[23]);
   return outcome;
 }
 

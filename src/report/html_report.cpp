@@ -445,11 +445,14 @@ CalibrationReportData MakeCalibrationReportData(const CalibrationOutcome& outcom
   for (const OptimisationReport& report : outcome.optimisations) {
     OptimisationRow row;
     row.problem = report.problem;
-    row.stages = static_cast<int>(report.stages.size());
+    // One run per stage (and restart), by the simplex or by L-BFGS.
+    row.stages = static_cast<int>(report.stages.size() + report.gradient_runs.size());
     for (const NelderMeadSummary& stage : report.stages) row.iterations += stage.iterations;
+    for (const GradientSolverSummary& run : report.gradient_runs) row.iterations += run.iterations;
     row.evaluations = report.evaluations;
     row.seconds = report.seconds;
     if (!report.stages.empty()) row.termination = report.stages.back().BriefReport();
+    if (!report.gradient_runs.empty()) row.termination = report.gradient_runs.back().BriefReport();
     data.optimisations.push_back(row);
   }
   return data;

@@ -28,6 +28,19 @@ diff <(grep -v elapsed_s <(sed -n '/^history:/,$p' "$work/threads.yaml")) \
      <(grep -v elapsed_s <(sed -n '/^history:/,$p' "$work/mpi.yaml")) >/dev/null ||
   { echo "FAIL: the histories differ" >&2; exit 1; }
 
+# The same with the L-BFGS lower level (its options travel with the tasks).
+"$scenecal" -q calibrate "$work/a" --output "$work/threads_lbfgs.yaml" "${args[@]}" --lower-solver lbfgs >/dev/null
+timeout 300 "${mpi[@]}" -np 3 "$scenecal" -q calibrate "$work/a" --output "$work/mpi_lbfgs.yaml" "${args[@]}" \
+  --lower-solver lbfgs --backend mpi >/dev/null
+if ! diff <(strip "$work/threads_lbfgs.yaml") <(strip "$work/mpi_lbfgs.yaml"); then
+  echo "FAIL: the MPI result differs from the thread result with --lower-solver lbfgs" >&2
+  exit 1
+fi
+grep -q 'lower_solver: "\?lbfgs' "$work/mpi_lbfgs.yaml" || { echo "FAIL: the result does not record the lbfgs solver" >&2; exit 1; }
+diff <(grep -v elapsed_s <(sed -n '/^history:/,$p' "$work/threads_lbfgs.yaml")) \
+     <(grep -v elapsed_s <(sed -n '/^history:/,$p' "$work/mpi_lbfgs.yaml")) >/dev/null ||
+  { echo "FAIL: the lbfgs histories differ" >&2; exit 1; }
+
 # Rank 0 reads dataset a, ranks 1-2 read dataset b: a clear error, no hang, no result.
 set +e
 timeout 300 "${mpi[@]}" -np 1 "$scenecal" -q calibrate "$work/a" --output "$work/mixed.yaml" "${args[@]}" --backend mpi : \
@@ -41,4 +54,4 @@ if [[ $status -eq 0 || $status -eq 124 ]]; then
 fi
 grep -q "differ from rank 0" "$work/mixed.log" || { echo "FAIL: no message naming the differing ranks" >&2; cat "$work/mixed.log" >&2; exit 1; }
 [[ ! -e "$work/mixed.yaml" ]] || { echo "FAIL: a result was written despite the mismatch" >&2; exit 1; }
-echo "3 passed, 0 failed"
+echo "4 passed, 0 failed"

@@ -66,16 +66,20 @@ int main(int argc, char** argv) {
 
   std::vector<PairObjective> objectives;
   const AlternatingProblem problem = Problem(&objectives);
-  AlternatingOptions options;
-  options.max_alternations = 8;
-  if (session.rank() != 0) {
-    // Serving ranks only hold the objectives they own.
-    std::vector<PairObjective> owned(objectives.size());
-    for (std::size_t p = 0; p < objectives.size(); ++p) {
-      if (distributed::OwnsPair(static_cast<int>(p), session.rank(), session.size())) owned[p] = objectives[p];
+  // Both lower solvers (L-BFGS with central-difference gradients: the bowls have no analytic one).
+  for (const LowerSolver solver : {LowerSolver::kSimplex, LowerSolver::kLbfgs}) {
+    AlternatingOptions options;
+    options.max_alternations = 8;
+    options.lower_solver = solver;
+    if (session.rank() != 0) {
+      // Serving ranks only hold the objectives they own.
+      std::vector<PairObjective> owned(objectives.size());
+      for (std::size_t p = 0; p < objectives.size(); ++p) {
+        if (distributed::OwnsPair(static_cast<int>(p), session.rank(), session.size())) owned[p] = objectives[p];
+      }
+      distributed::ServeLowerLevel(owned);
+      continue;
     }
-    distributed::ServeLowerLevel(owned);
-  } else {
     AlternatingResult distributed_result;
     {
       distributed::MpiLowerLevelBackend backend(objectives);
@@ -83,9 +87,15 @@ int main(int argc, char** argv) {
     }
     ThreadLowerLevelBackend threads(objectives);
     const AlternatingResult thread_result = SolveAlternating(problem, options, threads);
+    std::printf("%s: %d alternations, %d evaluations (%d with gradient)\n", LowerSolverName(solver),
+                thread_result.alternations, thread_result.total_evaluations, thread_result.total_gradient_evaluations);
     expect(distributed_result.success && thread_result.success, "both runs succeed");
     expect(distributed_result.alternations == thread_result.alternations, "same number of alternations");
     expect(distributed_result.total_evaluations == thread_result.total_evaluations, "same number of evaluations");
+    expect(distributed_result.total_gradient_evaluations == thread_result.total_gradient_evaluations,
+           "same number of gradient evaluations");
+    expect((solver == LowerSolver::kLbfgs) == (thread_result.total_gradient_evaluations > 0),
+           "gradient evaluations exactly with lbfgs");
     for (std::size_t l = 0; l < 2; ++l) {
       expect((distributed_result.T_base_lidar[l].matrix() - thread_result.T_base_lidar[l].matrix()).cwiseAbs().maxCoeff() == 0.0,
              "bit-identical T_base_lidar");

@@ -1,0 +1,99 @@
+#include "cli/uncertainty_report.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include "core/uncertainty.hpp"
+
+namespace scenecal::cli {
+namespace {
+
+YAML::Node Numbers(const double* values, int count) {
+  YAML::Node node(YAML::NodeType::Sequence);
+  node.SetStyle(YAML::EmitterStyle::Flow);
+  for (int i = 0; i < count; ++i) node.push_back(values[i]);
+  return node;
+}
+
+}  // namespace
+
+YAML::Node ReportUncertainty(const CalibrationInput& input, const CalibrationOptions& options,
+                             CalibrationResult* result) {
+  const auto start = std::chrono::steady_clock::now();
+  const UncertaintyOptions uncertainty_options;
+  spdlog::info("estimating the uncertainty of the result (B-spline metric; paired scene-by-scene cost changes along "
+               "the Hessian's directions, up to {:.0f} cm / {:.1f} deg)",
+               100.0 * uncertainty_options.max_search_units * uncertainty_options.unit_translation_m,
+               uncertainty_options.max_search_units * uncertainty_options.unit_rotation_rad * 180.0 / M_PI);
+  const std::vector<LidarUncertainty> estimates =
+      EstimateCalibrationUncertainty(input, options, *result, uncertainty_options);
+  YAML::Node node(YAML::NodeType::Map);
+  const double deg = 180.0 / M_PI;
+  for (std::size_t i = 0; i < estimates.size(); ++i) {
+    const LidarUncertainty& estimate = estimates[i];
+    LidarCalibration& lidar = result->lidars[i];
+    YAML::Node entry(YAML::NodeType::Map);
+    entry["method"] = "paired scene cost changes (B-spline metric) along the Hessian's eigenvectors; directions d = "
+                      "[rho (m), phi (rad)] along base axes, rotation about the lidar origin";
+    entry["scenes"] = estimate.units;
+    entry["estimated"] = estimate.estimated;
+    entry["determined"] = estimate.determined;
+    if (!estimate.why.empty()) entry["why"] = estimate.why;
+    if (!estimate.estimated) {
+      spdlog::warn("lidar {}: no uncertainty estimate: {}", lidar.lidar, estimate.why);
+      node[lidar.lidar] = entry;
+      continue;
+    }
+    YAML::Node directions(YAML::NodeType::Sequence);
+    std::string open;
+    for (const UncertainDirection& direction : estimate.directions) {
+      YAML::Node item(YAML::NodeType::Map);
+      item["direction_per_unit"] = Numbers(direction.direction.data(), 6);
+      item["curvature_per_unit2"] = direction.curvature;
+      item["determined"] = direction.determined;
+      if (direction.determined) {
+        item["sigma_units"] = direction.sigma_units;
+      } else {
+        item["flat_within_units"] = direction.flat_units;
+        open += fmt::format("{}[{}] flat within +-{:.1f} of these steps", open.empty() ? "" : "; ",
+                            DescribeLocalUpdate(direction.direction), direction.flat_units);
+      }
+      directions.push_back(item);
+    }
+    entry["directions"] = directions;
+    if (estimate.determined) {
+      // Not FORMAT.md's `sigma`: this is the spread within the basin the
+      // optimiser ended in. On weakly constrained data repeated runs from other
+      // starts land in other basins much further apart (BENCHMARK.md), so
+      // downstream tools must not read it as the calibration's uncertainty.
+      entry["local_sigma_tuple"] = Numbers(estimate.sigma_tuple.data(), 6);
+      entry["local_covariance_d"] = Numbers(estimate.covariance.data(), 36);  // symmetric
+      const UncertainDirection& weakest = *std::max_element(
+          estimate.directions.begin(), estimate.directions.end(),
+          [](const UncertainDirection& a, const UncertainDirection& b) { return a.sigma_units < b.sigma_units; });
+      const Vector6d& s = estimate.sigma_tuple;
+      spdlog::info("lidar {}: local 1-sigma x {:.2f} y {:.2f} z {:.2f} cm, roll {:.3f} pitch {:.3f} yaw {:.3f} deg "
+                   "(from {} scenes; weakest direction, 1 sigma: {}). Local: the spread within the basin the "
+                   "optimiser ended in, not the chance of another basin (rerun from other starts to see that)",
+                   lidar.lidar, 100 * s[0], 100 * s[1], 100 * s[2], deg * s[3], deg * s[4], deg * s[5], estimate.units,
+                   DescribeLocalUpdate(weakest.direction * weakest.sigma_units));
+    } else {
+      result->warnings.push_back(fmt::format(
+          "lidar {}: the data do not determine its extrinsic along {} of 6 directions ({} scenes): {}. The result "
+          "along them depends on the initial guess and the optimiser's path; add scenes with structure off the "
+          "ground (parked cars, kerbs, walls), a longer swathe (--swathe-length) or another camera",
+          lidar.lidar, std::count_if(estimate.directions.begin(), estimate.directions.end(),
+                                     [](const UncertainDirection& d) { return !d.determined; }),
+          estimate.units, open));
+    }
+    node[lidar.lidar] = entry;
+  }
+  result->timings_s["uncertainty"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return node;
+}
+
+}  // namespace scenecal::cli

@@ -1,0 +1,93 @@
+// How well the data determine a lidar's extrinsic: a 1-sigma per parameter
+// and the directions the data leave open.
+//
+// The cost is a mean of scene costs, F(d) = sum over scene units u of G_u(d)
+// (an M-estimator; the scenes of all cameras taken at one time form one unit,
+// as they see the same swathe). Moving the estimate by a along a direction v
+// changes F by dF(a) = sum_u [G_u(a v) - G_u(0)]; the spread of the units'
+// differences gives its standard error se(a). Near a minimum with curvature
+// lambda and per-unit gradient spread, dF = lambda a^2 / 2 and se = a sd, so
+// the step at which the rise first exceeds k standard errors is
+// a_k = 2 k sd / lambda = 2 k sigma_v (sigma_v: the estimator's standard
+// deviation along v, the sandwich covariance). Measuring a_k with finite,
+// paired steps instead of differentiating twice keeps the estimate stable on a
+// cost that ripples at the pixel scale.
+//
+// Directions v: the eigenvectors of the cost's Hessian (central differences
+// of the cost, 1 cm / 0.1 deg steps). Both use the cubic B-spline metric
+// (smooth) whatever binning the calibration used. A direction along which the
+// cost does not rise significantly within the search range is reported as
+// undetermined instead of given a sigma.
+//
+// The parameter d = [rho; phi] moves T_base_lidar: rho (metres) along the base
+// axes, phi (radians) a rotation about the lidar's origin along the base axes
+// (ApplyTransformUpdate with kAboutSourcePoint, pivot at the lidar origin).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "core/calibrate.hpp"
+#include "core/calibration_result.hpp"
+#include "core/geometry.hpp"
+#include "core/pair_cost.hpp"
+
+namespace scenecal {
+
+struct UncertaintyOptions {
+  // One unit of the search: this much translation (m) or rotation (rad)
+  // counts alike; also the Hessian's difference step.
+  double unit_translation_m = 0.01;
+  double unit_rotation_rad = 0.1 * 3.14159265358979323846 / 180.0;
+  // k: the cost must rise by k standard errors of the paired difference.
+  double significance = 2.0;
+  // Largest step searched along each direction, in units (16: 16 cm / 1.6 deg).
+  double max_search_units = 16.0;
+  // Fewer independent scene units than this: no estimate.
+  int min_units = 8;
+
+  bool IsValid(std::string* why = nullptr) const;
+};
+
+struct UncertainDirection {
+  // Unit direction of d (metres, radians; norm 1 in the 1 cm ~ 0.1 deg scaling).
+  Vector6d direction = Vector6d::Zero();
+  double curvature = 0.0;       // of F along it, cost per unit^2 (from the Hessian)
+  bool determined = false;      // the cost rose significantly on both sides within the search
+  double sigma_units = 0.0;     // 1-sigma along it, in units (when determined)
+  double flat_units = 0.0;      // when not: no significant rise within +-flat_units
+};
+
+struct LidarUncertainty {
+  bool estimated = false;    // false: `why` says why (too few scenes, no used scene)
+  bool determined = false;   // every direction determined: covariance and sigma_tuple are set
+  std::string why;
+  int units = 0;             // independent scene units (image times) used
+  std::vector<UncertainDirection> directions;  // ascending curvature (weakest first)
+  Matrix6d covariance = Matrix6d::Zero();      // of d (m, rad), when determined
+  Vector6d sigma_tuple = Vector6d::Zero();     // 1-sigma of FORMAT.md's [x y z roll pitch yaw] (m, rad)
+  int evaluations = 0;                         // joint cost evaluations spent
+};
+
+// pairs: every (camera, lidar) pair of one lidar, visibility refreshed at the
+// estimate (T_camera_lidar = T_base_camera^-1 * T_base_lidar), B-spline binning.
+LidarUncertainty EstimateLidarUncertainty(const std::vector<const PairCost*>& pairs,
+                                          const Eigen::Isometry3d& T_base_lidar, const UncertaintyOptions& options);
+
+// For every lidar of a calibration result: its pairs' costs rebuilt from the
+// input as the calibration built them but with B-spline binning (sharp images,
+// visibility at the result), and the estimate at the result's T_base_lidar.
+// In the result's lidar order.
+std::vector<LidarUncertainty> EstimateCalibrationUncertainty(const CalibrationInput& input,
+                                                             const CalibrationOptions& options,
+                                                             const CalibrationResult& result,
+                                                             const UncertaintyOptions& uncertainty_options);
+
+// The displacement of d by `units` along a unit direction, in words:
+// "dx +0.12 dy -0.30 dz +1.10 cm, rx +0.410 ry -0.020 rz +0.003 deg"
+// (translation along and rotation about the base axes).
+std::string DescribeLocalUpdate(const Vector6d& d);
+
+}  // namespace scenecal

@@ -1,0 +1,60 @@
+// Test support: a small simulated RobotCar dataset (stereo + rear push-broom
+// lidar, 480x360 images, 120 m, exact odometry) and the calibration input that
+// `scenecal calibrate` would load from it.
+#pragma once
+
+#include <filesystem>
+#include <map>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "core/calibrate.hpp"
+#include "io/dataset.hpp"
+#include "sim/simulator.hpp"
+
+namespace scenecal::test {
+
+inline void SimulateSmallRobotCar(const std::filesystem::path& root, std::uint64_t seed = 1) {
+  sim::SimulationOptions options;
+  options.seed = seed;
+  options.distance_m = 120.0;
+  options.image_width = 480;
+  options.image_height = 360;
+  options.image_rate_hz = 1.0;
+  options.odometry_noise = 0.0;
+  options.perturb_translation_m = 0.05;
+  options.perturb_rotation_deg = 2.0;
+  sim::Simulate(options, root);
+}
+
+// Selects scenes and loads what they use (what `scenecal calibrate` does).
+inline CalibrationInput LoadCalibrationInput(const io::Dataset& dataset, const SceneOptions& scene_options) {
+  std::map<std::string, std::vector<TimeUs>> image_times, scan_times;
+  for (const auto& [camera, files] : dataset.images) {
+    for (const auto& f : files) image_times[camera].push_back(f.t_us);
+  }
+  for (const auto& [lidar, files] : dataset.scans) {
+    for (const auto& f : files) scan_times[lidar].push_back(f.t_us);
+  }
+  CalibrationInput input;
+  input.rig = dataset.rig;
+  input.selection = SelectScenes(dataset.rig, dataset.trajectory, image_times, scan_times, scene_options);
+  for (const Scene& scene : input.selection.scenes) {
+    for (const auto& f : dataset.images.at(scene.camera)) {
+      if (f.t_us == scene.image_t_us) {
+        input.images[scene.camera][f.t_us] = io::ReadImage(f, dataset.rig.FindCamera(scene.camera)->model);
+      }
+    }
+    std::set<TimeUs> needed;
+    for (const SwatheScan& scan : scene.scans) needed.insert(scan.t_us);
+    for (const auto& f : dataset.scans.at(scene.lidar)) {
+      if (needed.count(f.t_us) != 0 && input.scans[scene.lidar].count(f.t_us) == 0) {
+        input.scans[scene.lidar][f.t_us] = io::ReadScan(f);
+      }
+    }
+  }
+  return input;
+}
+
+}  // namespace scenecal::test
