@@ -414,8 +414,9 @@ CommandRunner AddCalibrateCommand(CLI::App& app) {
       ->check(CLI::IsMember({"origin", "centroid"}))
       ->capture_default_str();
   command->add_flag("--no-uncertainty", args->no_uncertainty,
-                    "Skip the uncertainty estimate after the calibration (by default each lidar gets a 1-sigma per "
-                    "parameter, or a warning naming the directions the data do not determine; a few seconds)");
+                    "Skip the uncertainty estimate after the calibration (by default each lidar gets a local "
+                    "1-sigma per parameter, or a warning naming the directions the data do not determine; ~130 "
+                    "cost evaluations: seconds for push-broom swathes, minutes for dense 3D sweeps)");
   command->add_option("--report", args->report_dir,
                       "Write an HTML report with convergence, cost slices and overlays into this directory "
                       "(report.html and PNGs)");

@@ -311,6 +311,12 @@ int RunExperiment(const ExperimentArguments& args) {
     spdlog::error("{}: the experiment compares with the truth and needs ground_truth.yaml", dataset_path);
     return kExitInvalidInput;
   }
+  // The experiment has no --bins: single-frame 3D-lidar data gets calibrate's automatic defaults.
+  const std::string single_frame_defaults = ApplySingleFrameDefaults(dataset, false, &options);
+  if (!single_frame_defaults.empty()) {
+    spdlog::info("single-frame 3D-lidar data: {}", single_frame_defaults);
+    settings["single_frame_defaults"] = single_frame_defaults;
+  }
   const GroundTruth& truth = *dataset.ground_truth;
   for (const LidarInfo& lidar : dataset.rig.lidars) {
     if (truth.T_base_lidar.find(lidar.name) == truth.T_base_lidar.end()) {
