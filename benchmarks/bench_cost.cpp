@@ -13,6 +13,7 @@
 // Run: cmake -S . -B build-bench -DSCENECAL_BUILD_BENCHMARKS=ON &&
 //      cmake --build build-bench -j2 --target bench_cost && build-bench/bin/bench_cost
 #include <cmath>
+#include <cstdint>
 #include <cstdlib>
 #include <filesystem>
 #include <memory>
@@ -25,7 +26,9 @@
 #include <tbb/global_control.h>
 
 #include "core/geometry.hpp"
+#include "core/nelder_mead.hpp"
 #include "core/pair_cost.hpp"
+#include "hard_kernel_cost.hpp"
 #include "io/opencalib.hpp"
 #include "io/pcd.hpp"
 
@@ -142,6 +145,74 @@ void EvaluateArguments(benchmark::internal::Benchmark* b) {
   }
 }
 BENCHMARK(BM_Evaluate)->Apply(EvaluateArguments)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// The hard NID cost of BM_Evaluate/bspline:0 computed with
+// SceneSwathe::AddHardCounts (benchmarks/hard_kernel_cost.hpp) instead of the
+// ForEachProjected visitor that PairCost::SceneCost uses; checked bit for bit
+// against PairCost::Evaluate before timing (the benchmark fails otherwise).
+// Args: threads, size factor.
+void BM_HardKernel(benchmark::State& state) {
+  const tbb::global_control threads(tbb::global_control::max_allowed_parallelism,
+                                    static_cast<std::size_t>(state.range(0)));
+  const std::unique_ptr<PairCost> cost = MakeCost(Binning::kHard, static_cast<int>(state.range(1)));
+  const Eigen::Isometry3d T = Frame().T_camera_lidar;
+  const std::vector<std::size_t> used = bench::UsedScenes(*cost);
+  const double reference = cost->Evaluate(T);
+  if (bench::HardKernelCost(*cost, used, T) != reference) {
+    state.SkipWithError("AddHardCounts cost differs from PairCost::Evaluate");
+    return;
+  }
+  const std::size_t points = VisiblePoints(*cost);
+  double sink = 0.0;
+  for (auto _ : state) {
+    sink += bench::HardKernelCost(*cost, used, T);
+    benchmark::DoNotOptimize(sink);
+  }
+  state.SetItemsProcessed(static_cast<std::int64_t>(state.iterations() * points));
+  state.counters["points"] = static_cast<double>(points);
+  state.counters["scenes"] = static_cast<double>(used.size());
+  state.SetLabel("hard nid, AddHardCounts");
+}
+BENCHMARK(BM_HardKernel)
+    ->ArgNames({"threads", "size"})
+    ->ArgsProduct({{1, 2}, {1, 2, 4}})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+
+// Cost and analytic gradient (PairCost::EvaluateWithGradient, B-spline NID,
+// the --lower-solver lbfgs kernel) on the same data as BM_Evaluate's B-spline
+// cases: items per second against BM_Evaluate/bspline:1 gives the cost of one
+// gradient evaluation in plain evaluations (kGradientEvaluationCost,
+// core/calibrate.hpp). Args: threads, size factor.
+void BM_EvaluateWithGradient(benchmark::State& state) {
+  const tbb::global_control threads(tbb::global_control::max_allowed_parallelism,
+                                    static_cast<std::size_t>(state.range(0)));
+  const std::unique_ptr<PairCost> cost = MakeCost(Binning::kBSpline, static_cast<int>(state.range(1)));
+  // Slightly off the reference, so the gradient is not near zero (the cost does not depend on it).
+  Vector6d delta;
+  delta << 0.01, -0.005, 0.008, RadiansFromDegrees(0.2), RadiansFromDegrees(-0.1), RadiansFromDegrees(0.15);
+  const Eigen::Isometry3d T = ExpSE3(delta) * Frame().T_camera_lidar;
+  const std::size_t points = VisiblePoints(*cost);
+  double sink = 0.0;
+  Vector6d gradient;
+  for (auto _ : state) {
+    sink += cost->EvaluateWithGradient(T, TransformUpdate::kAboutSourcePoint, Eigen::Vector3d::Zero(), &gradient);
+    sink += gradient.sum();
+    benchmark::DoNotOptimize(sink);
+  }
+  state.SetItemsProcessed(static_cast<std::int64_t>(state.iterations() * points));
+  state.counters["points"] = static_cast<double>(points);
+  state.counters["scenes"] = cost->UsedSceneCount();
+  state.SetLabel("bspline nid + gradient");
+}
+BENCHMARK(BM_EvaluateWithGradient)
+    ->ArgNames({"threads", "size"})
+    ->Args({1, 1})
+    ->Args({1, 2})
+    ->Args({2, 1})
+    ->Args({2, 2})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 }  // namespace
 }  // namespace scenecal

@@ -9,6 +9,8 @@ packages=(
   libspdlog-dev libfmt-dev libtbb-dev liblzf-dev zlib1g-dev
   libopenmpi-dev openmpi-bin
   libgtest-dev libgmock-dev libbenchmark-dev
+  # The timing scripts (scripts/bench_*.sh): /usr/bin/time -v, Python 3 with PyYAML.
+  time python3 python3-yaml
 )
 # Headless Chromium renders the HTML report in the report test.
 if [[ "${SCENECAL_WITH_BROWSER:-1}" == "1" ]]; then packages+=(chromium); fi

@@ -90,18 +90,14 @@ double PairCost::SceneCost(std::size_t scene, const Eigen::Isometry3d& T_camera_
   JointHistogram histogram(options_.histogram);
   if (options_.histogram.binning == Binning::kHard) {
     // Integer counts in a per-thread table (no allocation once warm), added to
-    // the histogram once: exact, and the same weights as AddHard per sample.
+    // the histogram once: exact, and the same weights as AddHard per sample
+    // (AddHardCounts: the same bins as ForEachProjected + Sampler + HardBin,
+    // with the sampling and binning vectorised).
     const int nx = histogram.ReflectanceBins(), ny = histogram.IntensityBins();
     thread_local std::vector<std::uint32_t> counts;
     counts.assign(static_cast<std::size_t>(nx) * static_cast<std::size_t>(ny), 0u);
-    std::uint32_t* const table = counts.data();
-    const SceneSwathe::BilinearSampler sample = swathe.Sampler();
-    std::size_t samples = 0;
-    swathe.ForEachProjected(T_camera_lidar, true, [&](std::size_t, float x01, float u, float v, float) {
-      ++table[HardBin(x01, nx) * ny + HardBin(sample(u, v), ny)];
-      ++samples;
-    });
-    histogram.AddCounts(table, samples);
+    const std::size_t samples = swathe.AddHardCounts(T_camera_lidar, nx, ny, counts.data());
+    histogram.AddCounts(counts.data(), samples);
   } else {
     const SceneSwathe::BilinearSampler sample = swathe.Sampler();
     swathe.ForEachProjected(T_camera_lidar, true, [&](std::size_t, float x01, float u, float v, float) {

@@ -17,6 +17,7 @@
 #pragma once
 
 #include <algorithm>
+#include <cstddef>
 #include <cstdint>
 #include <iterator>
 #include <string>
@@ -117,6 +118,18 @@ class SceneSwathe {
   Vector6d SampleGradientSum(const Eigen::Isometry3d& T_camera_lidar, TransformUpdate update,
                              const Eigen::Vector3d& pivot_source, const CostGradient& dcost) const;
 
+  // The hard-binned joint histogram of the visible points that project under
+  // T_camera_lidar, as integer counts: for each such point,
+  //   ++counts[HardBin(x01, reflectance_bins) * intensity_bins + HardBin(Sample(u, v), intensity_bins)]
+  // (core/metric.hpp), i.e. exactly the bins of ForEachProjected + Sample + HardBin
+  // (the same float arithmetic in the same order, so the same samples), but with the
+  // pixel fractions, bilinear weights and bins computed per block in vectorised loops
+  // and only the four image reads per point left scalar (the hard NID kernel).
+  // counts holds reflectance_bins * intensity_bins entries and is added to, not
+  // cleared. Returns the number of points counted. Deterministic, allocation-free.
+  std::size_t AddHardCounts(const Eigen::Isometry3d& T_camera_lidar, int reflectance_bins, int intensity_bins,
+                            std::uint32_t* counts) const;
+
   // Number of points that project (visible ones only) under T_camera_lidar.
   std::size_t CountProjected(const Eigen::Isometry3d& T_camera_lidar) const;
   // The same count split by scan (ScanCount() entries, in scan order), all
@@ -137,8 +150,11 @@ class SceneSwathe {
   ProjectionParams projection_;
   cv::Mat image_;        // CV_32FC1, normalised; the working image (possibly blurred)
   cv::Mat image_sharp_;  // CV_32FC1, normalised, never blurred
+  double blur_sigma_px_ = 0.0;  // the blur of image_ (pixels, 1-sigma; 0 = sharp)
   bool image_constant_ = false;
   bool reflectance_constant_ = false;
+  // Image and reflectances finite and bounded (AddHardCounts' fast path needs it).
+  bool values_bounded_ = false;
   // Points in the lidar frame (metres) and normalised reflectance, SoA.
   std::vector<float> x_, y_, z_, reflectance01_;
   std::vector<std::uint8_t> visible_;
@@ -154,13 +170,13 @@ namespace swathe_detail {
 // visitor, prefetching the image rows of a point a few places ahead (the
 // bilinear gathers, not the arithmetic, bound the cost kernel).
 constexpr int kBlock = 256;
-constexpr int kPrefetchDistance = 8;
+constexpr int kPrefetchDistance = 16;
 
 template <CameraModelKind kKind>
 inline void ProjectBlock(const ProjectionParams& params, const Eigen::Matrix<float, 3, 4>& m,
                          const float* __restrict x, const float* __restrict y, const float* __restrict z,
-                         const std::uint8_t* __restrict visible, int count, float* __restrict u_out,
-                         float* __restrict v_out, float* __restrict depth_out, std::int32_t* __restrict accepted) {
+                         int count, float* __restrict u_out, float* __restrict v_out, float* __restrict depth_out,
+                         std::int32_t* __restrict accepted) {
   const float m00 = m(0, 0), m01 = m(0, 1), m02 = m(0, 2), m03 = m(0, 3);
   const float m10 = m(1, 0), m11 = m(1, 1), m12 = m(1, 2), m13 = m(1, 3);
   const float m20 = m(2, 0), m21 = m(2, 1), m22 = m(2, 2), m23 = m(2, 3);
@@ -194,10 +210,20 @@ inline void ProjectBlock(const ProjectionParams& params, const Eigen::Matrix<flo
     v_out[k] = v;
     depth_out[k] = pz;
     // Non-short-circuit & keeps the loop free of branches (vectorisable).
-    accepted[k] = (pz > min_depth) & in_range & (u >= u_min) & (u < u_max) & (v >= v_min) & (v < v_max) &
-                  (visible[k] != 0);
+    // (The visibility mask, bytes, is applied in a separate loop: mixing it in here would
+    // make the vectoriser process 16 or 32 points per iteration and spill registers.)
+    accepted[k] = (pz > min_depth) & in_range & (u >= u_min) & (u < u_max) & (v >= v_min) & (v < v_max);
   }
 }
+
+// ProjectBlock for the camera model of params (the equidistant model, with an
+// atan per point, goes through the scalar ProjectFast). Compiled twice and
+// chosen at run time: for AVX2 (8 floats per instruction) and for baseline
+// x86-64 (SSE2). Without FMA in either, the two give bit-identical results.
+void ProjectAnyBlock(const ProjectionParams& params, const Eigen::Matrix<float, 3, 4>& m, const float* __restrict x,
+                     const float* __restrict y, const float* __restrict z, const std::uint8_t* __restrict visible,
+                     int count, float* __restrict u_out, float* __restrict v_out, float* __restrict depth_out,
+                     std::int32_t* __restrict accepted);
 
 }  // namespace swathe_detail
 
@@ -221,22 +247,7 @@ void SceneSwathe::ForEachProjected(const Eigen::Isometry3d& T_camera_lidar, bool
       const int count = static_cast<int>(std::min<std::size_t>(kBlock, end - begin));
       const std::uint8_t* visible = visible_only ? visible_.data() + begin : all_visible;
       const float *x = x_.data() + begin, *y = y_.data() + begin, *z = z_.data() + begin;
-      switch (projection_.kind) {
-        case CameraModelKind::kPinhole:
-          ProjectBlock<CameraModelKind::kPinhole>(projection_, m, x, y, z, visible, count, u, v, depth, accepted);
-          break;
-        case CameraModelKind::kRadTan:
-          ProjectBlock<CameraModelKind::kRadTan>(projection_, m, x, y, z, visible, count, u, v, depth, accepted);
-          break;
-        case CameraModelKind::kEquidistant:  // atan per point: scalar, through the shared kernel
-          for (int k = 0; k < count; ++k) {
-            const float px = m(0, 0) * x[k] + m(0, 1) * y[k] + m(0, 2) * z[k] + m(0, 3);
-            const float py = m(1, 0) * x[k] + m(1, 1) * y[k] + m(1, 2) * z[k] + m(1, 3);
-            depth[k] = m(2, 0) * x[k] + m(2, 1) * y[k] + m(2, 2) * z[k] + m(2, 3);
-            accepted[k] = ProjectFast(projection_, px, py, depth[k], &u[k], &v[k]) && visible[k] != 0;
-          }
-          break;
-      }
+      ProjectAnyBlock(projection_, m, x, y, z, visible, count, u, v, depth, accepted);
       int accepted_count = 0;
       for (int k = 0; k < count; ++k) {
         index[accepted_count] = static_cast<std::uint16_t>(k);
@@ -245,7 +256,10 @@ void SceneSwathe::ForEachProjected(const Eigen::Isometry3d& T_camera_lidar, bool
       for (int a = 0; a < accepted_count; ++a) {
         if (a + kPrefetchDistance < accepted_count) {
           const int ahead = index[a + kPrefetchDistance];
-          const float* row = image + static_cast<std::size_t>(v[ahead]) * stride + static_cast<std::size_t>(u[ahead]);
+          // Through int: float -> size_t conversion costs a compare and branch per point on x86-64.
+          const float* row = image + static_cast<std::ptrdiff_t>(static_cast<int>(v[ahead])) *
+                                         static_cast<std::ptrdiff_t>(stride) +
+                             static_cast<int>(u[ahead]);
           __builtin_prefetch(row);
           __builtin_prefetch(row + stride);
         }

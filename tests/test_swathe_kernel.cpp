@@ -1,0 +1,257 @@
+// The fast kernels of SceneSwathe against the reference paths they replace:
+// - ProjectAnyBlock (run-time dispatched AVX2 / SSE2 clone, vectorised) gives
+//   the same pixels, bit for bit, and the same accept decisions as ProjectFast;
+// - AddHardCounts gives the same hard count table, bin for bin, as the
+//   ForEachProjected visitor + BilinearSampler + HardBin path of
+//   PairCost::SceneCost, for every camera model, bin counts, blur, occlusion,
+//   on a non-finite image (generic fallback), and on a real OpenCalib frame.
+#include <cmath>
+#include <cstdint>
+#include <filesystem>
+#include <limits>
+#include <random>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "core/geometry.hpp"
+#include "core/metric.hpp"
+#include "core/swathe.hpp"
+#include "io/opencalib.hpp"
+#include "io/pcd.hpp"
+
+namespace scenecal {
+namespace {
+
+CameraModel MakeCamera(CameraModelKind kind) {
+  CameraModel camera;
+  camera.width = 320;
+  camera.height = 240;
+  camera.kind = kind;
+  camera.fx = camera.fy = 260.0;
+  camera.cx = 161.3;
+  camera.cy = 118.7;
+  if (kind == CameraModelKind::kRadTan) camera.distortion = {-0.21, 0.05, 0.001, -0.0007, -0.004};
+  if (kind == CameraModelKind::kEquidistant) camera.distortion = {0.02, -0.01, 0.003, -0.0005};
+  return camera;
+}
+
+// Points in the lidar frame (= camera frame at the identity extrinsic): most in
+// a frustum in front, some behind, beside or too near, with random reflectance.
+LidarScan RandomScan(std::mt19937& rng, int points) {
+  std::uniform_real_distribution<float> unit(-1.0f, 1.0f), depth(-2.0f, 25.0f), reflectance(0.0f, 255.0f);
+  LidarScan scan;
+  for (int i = 0; i < points; ++i) {
+    const float z = depth(rng);
+    scan.points.push_back({0.75f * z * unit(rng), 0.6f * z * unit(rng), z, reflectance(rng)});
+  }
+  return scan;
+}
+
+struct TestSwathe {
+  CameraInfo camera;
+  std::vector<LidarScan> scans;
+  SceneSwathe swathe;
+};
+
+TestSwathe MakeSwathe(CameraModelKind kind, std::uint32_t seed) {
+  TestSwathe t;
+  t.camera.name = "cam";
+  t.camera.model = MakeCamera(kind);
+  std::mt19937 rng(seed);
+  cv::Mat image(t.camera.model.height, t.camera.model.width, CV_32FC1);
+  cv::randu(image, 0.0f, 1.0f);
+  Scene scene;
+  scene.camera = "cam";
+  scene.lidar = "lidar";
+  constexpr int kScans = 5;
+  for (int j = 0; j < kScans; ++j) t.scans.push_back(RandomScan(rng, 700 + 97 * j));  // not multiples of the block
+  std::vector<const LidarScan*> scan_pointers;
+  for (int j = 0; j < kScans; ++j) {
+    Vector6d tuple;
+    tuple << 0.05 * j, -0.02 * j, 0.3 * j, RadiansFromDegrees(0.4 * j), RadiansFromDegrees(-0.3 * j),
+        RadiansFromDegrees(0.2 * j);
+    scene.scans.push_back({j, TransformFromTuple(tuple)});
+    scan_pointers.push_back(&t.scans[static_cast<std::size_t>(j)]);
+  }
+  t.swathe = SceneSwathe::Build(scene, t.camera, image, scan_pointers, SwatheOptions{}, NormalisationOptions{});
+  return t;
+}
+
+std::vector<std::uint32_t> VisitorCounts(const SceneSwathe& swathe, const Eigen::Isometry3d& T, int nx, int ny,
+                                         std::size_t* samples) {
+  std::vector<std::uint32_t> counts(static_cast<std::size_t>(nx * ny), 0u);
+  const SceneSwathe::BilinearSampler sample = swathe.Sampler();
+  *samples = 0;
+  swathe.ForEachProjected(T, true, [&](std::size_t, float x01, float u, float v, float) {
+    ++counts[static_cast<std::size_t>(HardBin(x01, nx) * ny + HardBin(sample(u, v), ny))];
+    ++*samples;
+  });
+  return counts;
+}
+
+// Compares AddHardCounts with the visitor path at T; returns the samples compared.
+std::size_t ExpectSameCounts(const SceneSwathe& swathe, const Eigen::Isometry3d& T, int nx, int ny) {
+  std::size_t expected_samples = 0;
+  const std::vector<std::uint32_t> expected = VisitorCounts(swathe, T, nx, ny, &expected_samples);
+  std::vector<std::uint32_t> counts(expected.size(), 7u);  // added to, not cleared
+  const std::size_t samples = swathe.AddHardCounts(T, nx, ny, counts.data());
+  EXPECT_EQ(samples, expected_samples);
+  int differing = 0;
+  for (std::size_t i = 0; i < counts.size(); ++i) differing += counts[i] != expected[i] + 7u;
+  EXPECT_EQ(differing, 0) << "bins of " << nx << " x " << ny;
+  return samples;
+}
+
+std::vector<Eigen::Isometry3d> TestPoses() {
+  std::vector<Eigen::Isometry3d> poses = {Eigen::Isometry3d::Identity()};
+  std::mt19937 rng(3);
+  std::normal_distribution<double> noise(0.0, 1.0);
+  for (int i = 0; i < 6; ++i) {
+    Vector6d delta;
+    for (int k = 0; k < 6; ++k) delta(k) = noise(rng) * (k < 3 ? 0.05 : RadiansFromDegrees(2.0));
+    poses.push_back(ExpSE3(delta));
+  }
+  return poses;
+}
+
+TEST(SwatheKernel, ProjectAnyBlockMatchesProjectFastBitForBit) {
+  for (const CameraModelKind kind : {CameraModelKind::kPinhole, CameraModelKind::kRadTan, CameraModelKind::kEquidistant}) {
+    const ProjectionParams params = MakeProjectionParams(MakeCamera(kind), 0.5, 0.2);
+    std::mt19937 rng(11);
+    const LidarScan scan = RandomScan(rng, swathe_detail::kBlock);
+    std::vector<float> x, y, z;
+    std::vector<std::uint8_t> visible;
+    for (const LidarPoint& p : scan.points) {
+      x.push_back(p.x);
+      y.push_back(p.y);
+      z.push_back(p.z);
+      visible.push_back(static_cast<std::uint8_t>(x.size() % 5 != 0));  // every 5th hidden
+    }
+    Vector6d tuple;
+    tuple << 0.1, -0.2, 0.3, 0.02, -0.03, 0.01;
+    const Eigen::Matrix<float, 3, 4> m = TransformFromTuple(tuple).matrix().topRows<3>().cast<float>();
+    std::vector<float> u(x.size()), v(x.size()), depth(x.size());
+    std::vector<std::int32_t> accepted(x.size());
+    const int count = static_cast<int>(x.size()) - 3;  // a partial block
+    swathe_detail::ProjectAnyBlock(params, m, x.data(), y.data(), z.data(), visible.data(), count, u.data(), v.data(),
+                                   depth.data(), accepted.data());
+    int accepted_points = 0;
+    for (int k = 0; k < count; ++k) {
+      const float px = m(0, 0) * x[k] + m(0, 1) * y[k] + m(0, 2) * z[k] + m(0, 3);
+      const float py = m(1, 0) * x[k] + m(1, 1) * y[k] + m(1, 2) * z[k] + m(1, 3);
+      const float pz = m(2, 0) * x[k] + m(2, 1) * y[k] + m(2, 2) * z[k] + m(2, 3);
+      float u_fast = 0.0f, v_fast = 0.0f;
+      const bool expected = ProjectFast(params, px, py, pz, &u_fast, &v_fast) && visible[k] != 0;
+      ASSERT_EQ(accepted[k] != 0, expected) << "point " << k;
+      if (!expected) continue;
+      ++accepted_points;
+      EXPECT_EQ(u[k], u_fast) << "point " << k;
+      EXPECT_EQ(v[k], v_fast) << "point " << k;
+      EXPECT_EQ(depth[k], pz) << "point " << k;
+    }
+    EXPECT_GT(accepted_points, count / 4);  // the test points mostly project
+    EXPECT_LT(accepted_points, count);      // and some do not
+  }
+}
+
+TEST(SwatheKernel, AddHardCountsMatchesTheVisitorPathForEveryCameraModelBinsAndBlur) {
+  for (const CameraModelKind kind : {CameraModelKind::kPinhole, CameraModelKind::kRadTan, CameraModelKind::kEquidistant}) {
+    TestSwathe t = MakeSwathe(kind, 5);
+    ASSERT_GT(t.swathe.PointCount(), 0u);
+    std::size_t compared = 0;
+    for (const double blur_px : {0.0, 1.7}) {
+      t.swathe.SetImageBlur(blur_px);
+      for (const Eigen::Isometry3d& T : TestPoses()) {
+        compared += ExpectSameCounts(t.swathe, T, 32, 32);
+        compared += ExpectSameCounts(t.swathe, T, 7, 13);
+        compared += ExpectSameCounts(t.swathe, T, 2, HistogramOptions::kMaxBins);
+      }
+    }
+    EXPECT_GT(compared, 10000u) << CameraModelKindName(kind);
+  }
+}
+
+TEST(SwatheKernel, AddHardCountsCountsVisiblePointsOnly) {
+  TestSwathe t = MakeSwathe(CameraModelKind::kPinhole, 9);
+  const std::size_t before = t.swathe.VisibleCount();
+  t.swathe.RefreshVisibility(Eigen::Isometry3d::Identity(), SwatheOptions{});
+  ASSERT_LT(t.swathe.VisibleCount(), before);  // random points hide one another
+  std::vector<std::uint32_t> counts(32 * 32, 0u);
+  const std::size_t samples = t.swathe.AddHardCounts(Eigen::Isometry3d::Identity(), 32, 32, counts.data());
+  EXPECT_EQ(samples, t.swathe.CountProjected(Eigen::Isometry3d::Identity()));
+  for (const Eigen::Isometry3d& T : TestPoses()) ExpectSameCounts(t.swathe, T, 32, 32);
+}
+
+TEST(SwatheKernel, AddHardCountsOnANonFiniteImageTakesTheGenericPath) {
+  CameraInfo camera;
+  camera.name = "cam";
+  camera.model = MakeCamera(CameraModelKind::kPinhole);
+  cv::Mat image(camera.model.height, camera.model.width, CV_32FC1);
+  cv::randu(image, 0.0f, 1.0f);
+  // NaN and infinite pixels: HardBin puts NaN samples in bin 0 (and infinities at the ends).
+  for (int v = 0; v < image.rows; v += 3) image.at<float>(v, v % image.cols) = std::numeric_limits<float>::quiet_NaN();
+  for (int v = 1; v < image.rows; v += 5) image.at<float>(v, (3 * v) % image.cols) = std::numeric_limits<float>::infinity();
+  std::mt19937 rng(21);
+  const LidarScan scan = RandomScan(rng, 3000);
+  Scene scene;
+  scene.camera = "cam";
+  scene.lidar = "lidar";
+  scene.scans.push_back({0, Eigen::Isometry3d::Identity()});
+  const SceneSwathe swathe =
+      SceneSwathe::Build(scene, camera, image, {&scan}, SwatheOptions{}, NormalisationOptions{});
+  ASSERT_GT(swathe.PointCount(), 0u);
+  for (const Eigen::Isometry3d& T : TestPoses()) ExpectSameCounts(swathe, T, 32, 32);
+}
+
+// The real OpenCalib frame 1 (1920x1200 radtan camera, real image and sweep),
+// repeated as a swathe of 6 scans under small relative poses, as in bench_cost.
+TEST(SwatheKernel, AddHardCountsMatchesTheVisitorPathOnARealFrame) {
+  const std::filesystem::path dir = std::filesystem::path(SCENECAL_SHARED_DATA_DIR) / "opencalib" / "1";
+  if (!std::filesystem::exists(dir / "calib.txt")) GTEST_SKIP() << "no OpenCalib data at " << dir;
+  const io::OpenCalibCalibration calibration = io::ReadOpenCalibCalibration(dir / "calib.txt");
+  const cv::Mat grey = cv::imread((dir / "calib.jpg").string(), cv::IMREAD_GRAYSCALE);
+  ASSERT_FALSE(grey.empty());
+  cv::Mat intensity;
+  grey.convertTo(intensity, CV_32F, 1.0 / 255.0);
+  CameraInfo camera;
+  camera.name = "cam";
+  camera.model.width = grey.cols;
+  camera.model.height = grey.rows;
+  camera.model.kind = CameraModelKind::kRadTan;
+  camera.model.fx = calibration.fx;
+  camera.model.fy = calibration.fy;
+  camera.model.cx = calibration.cx;
+  camera.model.cy = calibration.cy;
+  camera.model.distortion = calibration.distortion;
+  LidarScan sweep;
+  for (const LidarPoint& p : io::ReadPcd(dir / "calib.pcd").points) {
+    if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z)) sweep.points.push_back(p);
+  }
+  Scene scene;
+  scene.camera = "cam";
+  scene.lidar = "lidar";
+  std::vector<const LidarScan*> scans;
+  for (int j = 0; j < 6; ++j) {
+    Vector6d tuple;
+    tuple << 0.01 * j, 0.0, 0.03 * j, 0.0, RadiansFromDegrees(0.1 * j), 0.0;
+    scene.scans.push_back({j, TransformFromTuple(tuple)});
+    scans.push_back(&sweep);
+  }
+  SceneSwathe swathe = SceneSwathe::Build(scene, camera, intensity, scans, SwatheOptions{}, NormalisationOptions{});
+  swathe.RefreshVisibility(calibration.T_camera_lidar, SwatheOptions{});
+  std::size_t compared = 0;
+  for (const double blur_px : {0.0, 7.68, 2.88}) {  // the default stages' blurs: 0.004 and 0.0015 of 1920 px
+    swathe.SetImageBlur(blur_px);
+    for (const Eigen::Isometry3d& delta : TestPoses()) {
+      compared += ExpectSameCounts(swathe, delta * calibration.T_camera_lidar, 32, 32);
+      compared += ExpectSameCounts(swathe, delta * calibration.T_camera_lidar, 8, 8);
+    }
+  }
+  EXPECT_GT(compared, 100000u);
+}
+
+}  // namespace
+}  // namespace scenecal
