@@ -195,6 +195,12 @@ void BM_EvaluateWithGradient(benchmark::State& state) {
   const std::size_t points = VisiblePoints(*cost);
   double sink = 0.0;
   Vector6d gradient;
+  // The cost of EvaluateWithGradient is Evaluate's, bit for bit (the same histogram).
+  if (cost->EvaluateWithGradient(T, TransformUpdate::kAboutSourcePoint, Eigen::Vector3d::Zero(), &gradient) !=
+      cost->Evaluate(T)) {
+    state.SkipWithError("EvaluateWithGradient cost differs from Evaluate");
+    return;
+  }
   for (auto _ : state) {
     sink += cost->EvaluateWithGradient(T, TransformUpdate::kAboutSourcePoint, Eigen::Vector3d::Zero(), &gradient);
     sink += gradient.sum();

@@ -234,10 +234,11 @@ std::vector<GradientSolverSummary> MinimiseCoarseToFineWithGradient(
 }
 
 // Measured on the OpenCalib frame (benchmarks/bench_cost.cpp, B-spline NID, 1
-// thread, 0.22 M and 0.42 M points): 22.3 ms against 6.7 ms and 43.9 ms against
-// 13.4 ms CPU time per evaluation, i.e. 3.3 (the gradient is a second pass over
-// the samples with the projection's derivatives).
-const double kGradientEvaluationCost = 3.3;
+// thread, 0.22 M and 0.42 M points): 6.5 ms against 3.25 ms and 14.0 ms against
+// 7.0 ms CPU time per evaluation (median of 3), i.e. 2.0 (the gradient is a second
+// pass over the samples recorded by the histogram pass, with the closed-form
+// projection derivatives).
+const double kGradientEvaluationCost = 2.0;
 
 std::string DescribeEvaluations(LowerSolver solver, int evaluations, int gradient_evaluations) {
   std::string text = std::to_string(evaluations) + " cost evaluations";

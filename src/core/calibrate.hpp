@@ -179,7 +179,7 @@ std::vector<GradientSolverSummary> MinimiseCoarseToFineWithGradient(
 extern const double kGradientEvaluationCost;
 
 // One line on a lower solver's evaluation count, e.g. "1234 cost evaluations"
-// or "321 cost evaluations (318 with gradient, each ~3.3 plain ones)".
+// or "321 cost evaluations (318 with gradient, each ~2 plain ones)".
 std::string DescribeEvaluations(LowerSolver solver, int evaluations, int gradient_evaluations);
 
 // The settings every scheme records in the result (scheme, metric, bins, scenes, ...).

@@ -136,6 +136,11 @@ class JointHistogram {
     }
   }
 
+  // AddBSpline(x01[k], y01[k]) for k = 0 .. count - 1, in that order (the same
+  // weights, bit for bit), with the B-spline windows computed in vectorised
+  // loops over chunks of samples (the B-spline cost kernel's batch form).
+  void AddBSplineBatch(const float* x01, const float* y01, std::size_t count);
+
   // Adds integer bin counts (row-major like Weights(), nx * ny entries) that
   // stand for `samples` hard-binned samples: the fast path of cost kernels,
   // which count into a per-thread integer table and add it once. Exact.
@@ -205,6 +210,11 @@ class CostGradient {
 
   // dCost/dy01 of one sample (x01, y01), normalised values as added.
   double SampleDerivative(float x01, float y01) const;
+  // SampleDerivative of count samples: derivatives[k] = SampleDerivative(x01[k], y01[k])
+  // (the same arithmetic, bit-identical), with the B-spline windows computed in
+  // vectorised loops over chunks of samples and each sample's 4 x 4 bins read
+  // from a padded table (no clamping): the gradient kernel's batch form.
+  void SampleDerivatives(const float* x01, const float* y01, std::size_t count, double* derivatives) const;
 
   // Row-major like JointHistogram::Weights(); empty bins get 0 (the limit).
   const std::vector<double>& BinDerivatives() const { return dcost_dweight_; }
@@ -213,6 +223,11 @@ class CostGradient {
   int nx_ = 0, ny_ = 0;
   bool smooth_ = false;  // B-spline binning
   std::vector<double> dcost_dweight_;
+  // dcost_dweight_ with kPad edge copies on every side ((nx + 2 kPad) x (ny + 2 kPad),
+  // row-major): padded(i + kPad, j + kPad) = dcost_dweight(ClampBin(i), ClampBin(j)) for
+  // the window bins -2 .. bins + 1, so SampleDerivatives reads 4 x 4 blocks without clamping.
+  static constexpr int kPad = 2;
+  std::vector<double> padded_;
 };
 
 // Convenience: builds the histogram of the samples, and returns the cost and

@@ -99,10 +99,8 @@ double PairCost::SceneCost(std::size_t scene, const Eigen::Isometry3d& T_camera_
     const std::size_t samples = swathe.AddHardCounts(T_camera_lidar, nx, ny, counts.data());
     histogram.AddCounts(counts.data(), samples);
   } else {
-    const SceneSwathe::BilinearSampler sample = swathe.Sampler();
-    swathe.ForEachProjected(T_camera_lidar, true, [&](std::size_t, float x01, float u, float v, float) {
-      histogram.AddBSpline(x01, sample(u, v));
-    });
+    // The same weights, bit for bit, as ForEachProjected + AddBSpline per point.
+    swathe.AddBSplineSamples(T_camera_lidar, &histogram);
   }
   if (projected != nullptr) *projected = histogram.Samples();
   return CostValue(ComputeInformation(histogram), options_.metric);
@@ -135,13 +133,13 @@ double PairCost::SceneCostAndGradient(std::size_t scene, const Eigen::Isometry3d
     return SceneCost(scene, T_camera_lidar, nullptr);
   }
   JointHistogram histogram(options_.histogram);
-  const SceneSwathe::BilinearSampler sample = swathe.Sampler();
-  swathe.ForEachProjected(T_camera_lidar, true, [&](std::size_t, float x01, float u, float v, float) {
-    histogram.AddBSpline(x01, sample(u, v));
-  });
+  // As SceneCost (the same cost), recording the samples for the gradient pass
+  // (per thread, storage reused across calls).
+  thread_local SceneSwathe::GradientSamples samples;
+  swathe.AddBSplineSamples(T_camera_lidar, &histogram, &samples);
   CostGradient dcost;
   dcost.Compute(histogram, options_.metric);
-  *gradient = swathe.SampleGradientSum(T_camera_lidar, update, pivot_source, dcost);
+  *gradient = swathe.SampleGradientSum(samples, T_camera_lidar, update, pivot_source, dcost);
   return CostValue(ComputeInformation(histogram), options_.metric);
 }
 

@@ -52,6 +52,16 @@ class SceneSwathe {
  public:
   SceneSwathe() = default;
 
+  // What the gradient pass needs of each B-spline sample, recorded by
+  // AddBSplineSamples for SampleGradientSum (storage reused across calls).
+  struct GradientSamples {
+    std::size_t count = 0;                   // samples recorded (the arrays may be longer: reused storage)
+    std::vector<float> x01, y01;             // as added to the histogram
+    std::vector<double> dy_du, dy_dv;        // image gradient of the bilinear interpolant (per pixel)
+    std::vector<std::uint16_t> index;        // of the sample's point in its block
+    std::vector<std::uint16_t> block_samples;  // samples per block (scan by scan, swathe_detail::kBlock points)
+  };
+
   // Builds the swathe of `scene` seen by `camera`: scans[i] is the scan at
   // scene.scans[i].t_us (same order and size). `intensity` is the frame's
   // GreyImage intensity (CV_32FC1 in [0, 1]); it is normalised here with
@@ -108,15 +118,34 @@ class SceneSwathe {
   std::size_t RefreshVisibility(const Eigen::Isometry3d& T_camera_lidar, const SwatheOptions& options);
 
   // Analytic gradient for B-spline metrics: the sum over the visible points
-  // that project under T_camera_lidar (in ForEachProjected's order) of
+  // that project under T_camera_lidar (those of ForEachProjected) of
   // dcost.SampleDerivative(x01, y01) * dy01/ddelta, where y01 is the bilinear
   // intensity and delta the local update of ApplyTransformUpdate(T_camera_lidar,
   // delta, update, pivot_source) at delta = 0 (core/nelder_mead.hpp):
   //   dy01/ddelta = [dY/du dY/dv] (image gradient of the bilinear interpolant)
   //                 * d(u, v)/dp (projection with distortion) * dp/ddelta.
-  // `dcost` must come from the histogram of the same samples. Deterministic.
+  // `dcost` must come from the histogram of the same samples. Computed block by
+  // block (closed-form projection Jacobians, double) and summed per scan in a
+  // fixed order: deterministic.
   Vector6d SampleGradientSum(const Eigen::Isometry3d& T_camera_lidar, TransformUpdate update,
                              const Eigen::Vector3d& pivot_source, const CostGradient& dcost) const;
+  // The same sum (bit for bit) from the samples AddBSplineSamples recorded at the
+  // same T_camera_lidar (a record that does not fit this swathe falls back to the
+  // pass above).
+  Vector6d SampleGradientSum(const GradientSamples& samples, const Eigen::Isometry3d& T_camera_lidar,
+                             TransformUpdate update, const Eigen::Vector3d& pivot_source,
+                             const CostGradient& dcost) const;
+
+  // Adds the visible points that project under T_camera_lidar to the histogram
+  // with B-spline binning: exactly histogram->AddBSpline(x01, Sample(u, v)) for
+  // each point of ForEachProjected, in its order (the same weights, bit for bit),
+  // with the windows computed per block in vectorised loops. Returns the number
+  // of points added.
+  // With record, also records what SampleGradientSum needs of each sample
+  // (GradientSamples), so that the gradient pass (after CostGradient::Compute on
+  // the histogram) neither projects nor samples the image again.
+  std::size_t AddBSplineSamples(const Eigen::Isometry3d& T_camera_lidar, JointHistogram* histogram,
+                                GradientSamples* record = nullptr) const;
 
   // The hard-binned joint histogram of the visible points that project under
   // T_camera_lidar, as integer counts: for each such point,
