@@ -265,21 +265,13 @@ std::size_t SceneSwathe::AddHardCounts(const Eigen::Isometry3d& T_camera_lidar, 
   }
   const float* const image = image_.ptr<float>();
   const auto stride = static_cast<std::int32_t>(image_.step1());
-  alignas(64) float u[kBlock], v[kBlock], depth[kBlock];
-  alignas(64) std::int32_t accepted[kBlock];
   std::size_t samples = 0;
-  for (std::size_t scan = 0; scan < T_camerak_cameraj_.size(); ++scan) {
-    const Eigen::Matrix<float, 3, 4> m =
-        (T_camerak_cameraj_[scan] * T_camera_lidar).matrix().topRows<3>().cast<float>();
-    const std::size_t end = scan_begin_[scan + 1];
-    for (std::size_t begin = scan_begin_[scan]; begin < end; begin += kBlock) {
-      const int count = static_cast<int>(std::min<std::size_t>(kBlock, end - begin));
-      ProjectAnyBlock(projection_, m, x_.data() + begin, y_.data() + begin, z_.data() + begin,
-                      visible_.data() + begin, count, u, v, depth, accepted);
-      samples += CountHardBlock(image, stride, u, v, accepted, reflectance01_.data() + begin, count,
-                                reflectance_bins, intensity_bins, counts);
-    }
-  }
+  ForEachProjectedBlock(T_camera_lidar, true,
+                        [&](std::size_t begin, int count, const float* u, const float* v, const float*,
+                            const std::int32_t* accepted) {
+                          samples += CountHardBlock(image, stride, u, v, accepted, reflectance01_.data() + begin,
+                                                    count, reflectance_bins, intensity_bins, counts);
+                        });
   return samples;
 }
 
@@ -530,36 +522,27 @@ std::size_t SceneSwathe::AddBSplineSamples(const Eigen::Isometry3d& T_camera_lid
   if (image_.empty()) return 0;
   const float* const image = image_.ptr<float>();
   const auto stride = static_cast<std::ptrdiff_t>(image_.step1());
-  alignas(64) float u[kBlock], v[kBlock], depth[kBlock];
-  alignas(64) std::int32_t accepted[kBlock];
   GradientBlock block;
   std::size_t samples = 0;
-  for (std::size_t scan = 0; scan < T_camerak_cameraj_.size(); ++scan) {
-    const Eigen::Matrix<float, 3, 4> m =
-        (T_camerak_cameraj_[scan] * T_camera_lidar).matrix().topRows<3>().cast<float>();
-    const std::size_t end = scan_begin_[scan + 1];
-    for (std::size_t begin = scan_begin_[scan]; begin < end; begin += kBlock) {
-      const int count = static_cast<int>(std::min<std::size_t>(kBlock, end - begin));
-      ProjectAnyBlock(projection_, m, x_.data() + begin, y_.data() + begin, z_.data() + begin,
-                      visible_.data() + begin, count, u, v, depth, accepted);
-      const float* x01 = reflectance01_.data() + begin;
-      if (record == nullptr) {
-        const int n = GatherSampleBlock(image, stride, u, v, accepted, x01, count, &block, BlockOutput(&block));
-        histogram->AddBSplineBatch(block.x01, block.y01, static_cast<std::size_t>(n));
-        samples += static_cast<std::size_t>(n);
-        continue;
-      }
-      // Straight into the record (samples <= begin: room for the block's points).
-      const GatherOutput out = {record->x01.data() + samples, record->y01.data() + samples,
-                                record->dy_du.data() + samples, record->dy_dv.data() + samples,
-                                record->index.data() + samples};
-      const int n = GatherGradientBlock(image, stride, u, v, accepted, x01, count, &block, out);
-      histogram->AddBSplineBatch(out.x01, out.y01, static_cast<std::size_t>(n));
+  ForEachProjectedBlock(T_camera_lidar, true, [&](std::size_t begin, int count, const float* u, const float* v,
+                                                  const float*, const std::int32_t* accepted) {
+    const float* x01 = reflectance01_.data() + begin;
+    if (record == nullptr) {
+      const int n = GatherSampleBlock(image, stride, u, v, accepted, x01, count, &block, BlockOutput(&block));
+      histogram->AddBSplineBatch(block.x01, block.y01, static_cast<std::size_t>(n));
       samples += static_cast<std::size_t>(n);
-      record->count = samples;
-      record->block_samples.push_back(static_cast<std::uint16_t>(n));
+      return;
     }
-  }
+    // Straight into the record (samples <= begin: room for the block's points).
+    const GatherOutput out = {record->x01.data() + samples, record->y01.data() + samples,
+                              record->dy_du.data() + samples, record->dy_dv.data() + samples,
+                              record->index.data() + samples};
+    const int n = GatherGradientBlock(image, stride, u, v, accepted, x01, count, &block, out);
+    histogram->AddBSplineBatch(out.x01, out.y01, static_cast<std::size_t>(n));
+    samples += static_cast<std::size_t>(n);
+    record->count = samples;
+    record->block_samples.push_back(static_cast<std::uint16_t>(n));
+  });
   return samples;
 }
 

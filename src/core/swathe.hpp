@@ -174,6 +174,14 @@ class SceneSwathe {
   const cv::Mat& Image() const { return image_; }
 
  private:
+  // The projection loop shared by the kernels: for each block of up to
+  // swathe_detail::kBlock points of one scan, ProjectAnyBlock under the scan's
+  // precomposed transform, then visit(begin, count, u, v, depth, accepted) with
+  // the block's first point index and ProjectAnyBlock's outputs (hidden points
+  // rejected when visible_only).
+  template <typename BlockVisitor>
+  void ForEachProjectedBlock(const Eigen::Isometry3d& T_camera_lidar, bool visible_only, BlockVisitor&& visit) const;
+
   std::string camera_, lidar_;
   TimeUs image_t_us_ = 0;
   ProjectionParams projection_;
@@ -256,18 +264,14 @@ void ProjectAnyBlock(const ProjectionParams& params, const Eigen::Matrix<float, 
 
 }  // namespace swathe_detail
 
-template <typename Visitor>
-void SceneSwathe::ForEachProjected(const Eigen::Isometry3d& T_camera_lidar, bool visible_only,
-                                   Visitor&& visit) const {
+template <typename BlockVisitor>
+void SceneSwathe::ForEachProjectedBlock(const Eigen::Isometry3d& T_camera_lidar, bool visible_only,
+                                        BlockVisitor&& visit) const {
   using namespace swathe_detail;
   alignas(64) float u[kBlock], v[kBlock], depth[kBlock];
   alignas(64) std::int32_t accepted[kBlock];
   alignas(64) std::uint8_t all_visible[kBlock];
-  std::uint16_t index[kBlock];
   if (!visible_only) std::fill(std::begin(all_visible), std::end(all_visible), std::uint8_t{1});
-  const float* const image = image_.empty() ? nullptr : image_.ptr<float>();
-  const std::size_t stride = image_.step1();
-  const float* const reflectance01 = reflectance01_.data();
   for (std::size_t scan = 0; scan < T_camerak_cameraj_.size(); ++scan) {
     const Eigen::Matrix<float, 3, 4> m =
         (T_camerak_cameraj_[scan] * T_camera_lidar).matrix().topRows<3>().cast<float>();
@@ -275,29 +279,45 @@ void SceneSwathe::ForEachProjected(const Eigen::Isometry3d& T_camera_lidar, bool
     for (std::size_t begin = scan_begin_[scan]; begin < end; begin += kBlock) {
       const int count = static_cast<int>(std::min<std::size_t>(kBlock, end - begin));
       const std::uint8_t* visible = visible_only ? visible_.data() + begin : all_visible;
-      const float *x = x_.data() + begin, *y = y_.data() + begin, *z = z_.data() + begin;
-      ProjectAnyBlock(projection_, m, x, y, z, visible, count, u, v, depth, accepted);
-      int accepted_count = 0;
-      for (int k = 0; k < count; ++k) {
-        index[accepted_count] = static_cast<std::uint16_t>(k);
-        accepted_count += accepted[k];
-      }
-      for (int a = 0; a < accepted_count; ++a) {
-        if (a + kPrefetchDistance < accepted_count) {
-          const int ahead = index[a + kPrefetchDistance];
-          // Through int: float -> size_t conversion costs a compare and branch per point on x86-64.
-          const float* row = image + static_cast<std::ptrdiff_t>(static_cast<int>(v[ahead])) *
-                                         static_cast<std::ptrdiff_t>(stride) +
-                             static_cast<int>(u[ahead]);
-          __builtin_prefetch(row);
-          __builtin_prefetch(row + stride);
-        }
-        const int k = index[a];
-        visit(begin + static_cast<std::size_t>(k), reflectance01[begin + static_cast<std::size_t>(k)], u[k], v[k],
-              depth[k]);
-      }
+      ProjectAnyBlock(projection_, m, x_.data() + begin, y_.data() + begin, z_.data() + begin, visible, count, u, v,
+                      depth, accepted);
+      visit(begin, count, u, v, depth, accepted);
     }
   }
+}
+
+template <typename Visitor>
+void SceneSwathe::ForEachProjected(const Eigen::Isometry3d& T_camera_lidar, bool visible_only,
+                                   Visitor&& visit) const {
+  using namespace swathe_detail;
+  const float* const image = image_.empty() ? nullptr : image_.ptr<float>();
+  const std::size_t stride = image_.step1();
+  const float* const reflectance01 = reflectance01_.data();
+  ForEachProjectedBlock(T_camera_lidar, visible_only,
+                        [&](std::size_t begin, int count, const float* u, const float* v, const float* depth,
+                            const std::int32_t* accepted) {
+                          std::uint16_t index[kBlock];
+                          int accepted_count = 0;
+                          for (int k = 0; k < count; ++k) {
+                            index[accepted_count] = static_cast<std::uint16_t>(k);
+                            accepted_count += accepted[k];
+                          }
+                          for (int a = 0; a < accepted_count; ++a) {
+                            if (a + kPrefetchDistance < accepted_count) {
+                              const int ahead = index[a + kPrefetchDistance];
+                              // Through int: float -> size_t conversion costs a compare and branch per point on x86-64.
+                              const float* row = image +
+                                                 static_cast<std::ptrdiff_t>(static_cast<int>(v[ahead])) *
+                                                     static_cast<std::ptrdiff_t>(stride) +
+                                                 static_cast<int>(u[ahead]);
+                              __builtin_prefetch(row);
+                              __builtin_prefetch(row + stride);
+                            }
+                            const int k = index[a];
+                            visit(begin + static_cast<std::size_t>(k), reflectance01[begin + static_cast<std::size_t>(k)],
+                                  u[k], v[k], depth[k]);
+                          }
+                        });
 }
 
 }  // namespace scenecal
