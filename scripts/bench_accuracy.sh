@@ -6,8 +6,8 @@
 # DATASET defaults to /tmp/rc; it is simulated first when missing
 # (scenecal simulate --preset robotcar --seed 1 --output DATASET).
 # For every scheme x metric (SCHEMES, METRICS; default once joint x nid mi)
-# and every seed in SEEDS (default 1..10) the lidar's initial guess is moved
-# is set to the TRUE T_base_lidar moved by PERTURB_T metres and PERTURB_R
+# and every seed in SEEDS (default 1..10) the lidar's initial guess is set to
+# the TRUE T_base_lidar moved by PERTURB_T metres and PERTURB_R
 # degrees (default 0.1, 3) in random directions drawn from the seed
 # (--perturb-from-truth --perturb-translation/--perturb-rotation), then
 # calibrated. Prints, per scheme x metric x lidar, the median, max and

@@ -29,67 +29,27 @@
 #include "core/metric.hpp"
 #include "core/nelder_mead.hpp"
 #include "core/swathe.hpp"
+#include "support/random_swathe.hpp"
 
 namespace scenecal {
 namespace {
 
-CameraModel MakeCamera(CameraModelKind kind) {
-  CameraModel camera;
-  camera.width = 320;
-  camera.height = 240;
-  camera.kind = kind;
-  camera.fx = 262.0;
-  camera.fy = 258.0;
-  camera.cx = 161.3;
-  camera.cy = 118.7;
-  if (kind == CameraModelKind::kRadTan) camera.distortion = {-0.21, 0.05, 0.001, -0.0007, -0.004};
-  if (kind == CameraModelKind::kEquidistant) camera.distortion = {0.02, -0.01, 0.003, -0.0005};
-  return camera;
-}
+using test::TestSwathe;
 
-// Points in front of the camera (at the identity extrinsic), some outside the
-// image, behind it or too near; random reflectance.
-LidarScan RandomScan(std::mt19937& rng, int points) {
-  std::uniform_real_distribution<float> unit(-1.0f, 1.0f), depth(-2.0f, 25.0f), reflectance(0.0f, 255.0f);
-  LidarScan scan;
-  for (int i = 0; i < points; ++i) {
-    const float z = depth(rng);
-    scan.points.push_back({0.8f * z * unit(rng), 0.65f * z * unit(rng), z, reflectance(rng)});
-  }
-  return scan;
-}
-
-struct TestSwathe {
-  CameraInfo camera;
-  std::vector<LidarScan> scans;
-  SceneSwathe swathe;
-};
-
+// A swathe of 4 random scans over smooth structure plus noise (image gradients of every size).
 TestSwathe MakeSwathe(CameraModelKind kind, std::uint32_t seed) {
-  TestSwathe t;
-  t.camera.name = "cam";
-  t.camera.model = MakeCamera(kind);
-  std::mt19937 rng(seed);
-  cv::Mat noise(t.camera.model.height, t.camera.model.width, CV_32FC1), image;
+  const CameraModel camera = test::MakeKernelTestCamera(kind, 262.0, 258.0);
+  cv::Mat noise(camera.height, camera.width, CV_32FC1), image;
   cv::randu(noise, 0.0f, 1.0f);
-  // Smooth structure plus the noise: image gradients of every size.
   cv::GaussianBlur(noise, image, cv::Size(0, 0), 3.0);
   image = 0.7 * image + 0.3 * noise;
-  Scene scene;
-  scene.camera = "cam";
-  scene.lidar = "lidar";
-  constexpr int kScans = 4;
-  for (int j = 0; j < kScans; ++j) t.scans.push_back(RandomScan(rng, 900 + 113 * j));  // not multiples of the block
-  std::vector<const LidarScan*> scan_pointers;
-  for (int j = 0; j < kScans; ++j) {
-    Vector6d tuple;
-    tuple << 0.05 * j, -0.02 * j, 0.3 * j, RadiansFromDegrees(0.4 * j), RadiansFromDegrees(-0.3 * j),
-        RadiansFromDegrees(0.2 * j);
-    scene.scans.push_back({j, TransformFromTuple(tuple)});
-    scan_pointers.push_back(&t.scans[static_cast<std::size_t>(j)]);
-  }
-  t.swathe = SceneSwathe::Build(scene, t.camera, image, scan_pointers, SwatheOptions{}, NormalisationOptions{});
-  return t;
+  test::RandomSwatheSpec spec;
+  spec.scans = 4;
+  spec.first_scan_points = 900;
+  spec.scan_points_step = 113;
+  spec.spread_x = 0.8f;
+  spec.spread_y = 0.65f;
+  return test::MakeRandomSwathe(camera, image, seed, spec);
 }
 
 // d(u, v) / d(p_camera) with ceres::Jet through the camera_kernel templates (the old kernel's formula).

@@ -21,63 +21,21 @@
 #include "core/swathe.hpp"
 #include "io/opencalib.hpp"
 #include "io/pcd.hpp"
+#include "support/random_swathe.hpp"
 
 namespace scenecal {
 namespace {
 
-CameraModel MakeCamera(CameraModelKind kind) {
-  CameraModel camera;
-  camera.width = 320;
-  camera.height = 240;
-  camera.kind = kind;
-  camera.fx = camera.fy = 260.0;
-  camera.cx = 161.3;
-  camera.cy = 118.7;
-  if (kind == CameraModelKind::kRadTan) camera.distortion = {-0.21, 0.05, 0.001, -0.0007, -0.004};
-  if (kind == CameraModelKind::kEquidistant) camera.distortion = {0.02, -0.01, 0.003, -0.0005};
-  return camera;
-}
+using test::TestSwathe;
 
-// Points in the lidar frame (= camera frame at the identity extrinsic): most in
-// a frustum in front, some behind, beside or too near, with random reflectance.
-LidarScan RandomScan(std::mt19937& rng, int points) {
-  std::uniform_real_distribution<float> unit(-1.0f, 1.0f), depth(-2.0f, 25.0f), reflectance(0.0f, 255.0f);
-  LidarScan scan;
-  for (int i = 0; i < points; ++i) {
-    const float z = depth(rng);
-    scan.points.push_back({0.75f * z * unit(rng), 0.6f * z * unit(rng), z, reflectance(rng)});
-  }
-  return scan;
-}
+CameraModel MakeCamera(CameraModelKind kind) { return test::MakeKernelTestCamera(kind); }
 
-struct TestSwathe {
-  CameraInfo camera;
-  std::vector<LidarScan> scans;
-  SceneSwathe swathe;
-};
-
+// A swathe of 5 random scans over an image of uniform noise.
 TestSwathe MakeSwathe(CameraModelKind kind, std::uint32_t seed) {
-  TestSwathe t;
-  t.camera.name = "cam";
-  t.camera.model = MakeCamera(kind);
-  std::mt19937 rng(seed);
-  cv::Mat image(t.camera.model.height, t.camera.model.width, CV_32FC1);
+  const CameraModel camera = MakeCamera(kind);
+  cv::Mat image(camera.height, camera.width, CV_32FC1);
   cv::randu(image, 0.0f, 1.0f);
-  Scene scene;
-  scene.camera = "cam";
-  scene.lidar = "lidar";
-  constexpr int kScans = 5;
-  for (int j = 0; j < kScans; ++j) t.scans.push_back(RandomScan(rng, 700 + 97 * j));  // not multiples of the block
-  std::vector<const LidarScan*> scan_pointers;
-  for (int j = 0; j < kScans; ++j) {
-    Vector6d tuple;
-    tuple << 0.05 * j, -0.02 * j, 0.3 * j, RadiansFromDegrees(0.4 * j), RadiansFromDegrees(-0.3 * j),
-        RadiansFromDegrees(0.2 * j);
-    scene.scans.push_back({j, TransformFromTuple(tuple)});
-    scan_pointers.push_back(&t.scans[static_cast<std::size_t>(j)]);
-  }
-  t.swathe = SceneSwathe::Build(scene, t.camera, image, scan_pointers, SwatheOptions{}, NormalisationOptions{});
-  return t;
+  return test::MakeRandomSwathe(camera, image, seed);
 }
 
 std::vector<std::uint32_t> VisitorCounts(const SceneSwathe& swathe, const Eigen::Isometry3d& T, int nx, int ny,
@@ -121,7 +79,7 @@ TEST(SwatheKernel, ProjectAnyBlockMatchesProjectFastBitForBit) {
   for (const CameraModelKind kind : {CameraModelKind::kPinhole, CameraModelKind::kRadTan, CameraModelKind::kEquidistant}) {
     const ProjectionParams params = MakeProjectionParams(MakeCamera(kind), 0.5, 0.2);
     std::mt19937 rng(11);
-    const LidarScan scan = RandomScan(rng, swathe_detail::kBlock);
+    const LidarScan scan = test::RandomFrustumScan(rng, swathe_detail::kBlock);
     std::vector<float> x, y, z;
     std::vector<std::uint8_t> visible;
     for (const LidarPoint& p : scan.points) {
@@ -195,7 +153,7 @@ TEST(SwatheKernel, AddHardCountsOnANonFiniteImageTakesTheGenericPath) {
   for (int v = 0; v < image.rows; v += 3) image.at<float>(v, v % image.cols) = std::numeric_limits<float>::quiet_NaN();
   for (int v = 1; v < image.rows; v += 5) image.at<float>(v, (3 * v) % image.cols) = std::numeric_limits<float>::infinity();
   std::mt19937 rng(21);
-  const LidarScan scan = RandomScan(rng, 3000);
+  const LidarScan scan = test::RandomFrustumScan(rng, 3000);
   Scene scene;
   scene.camera = "cam";
   scene.lidar = "lidar";
@@ -218,14 +176,7 @@ TEST(SwatheKernel, AddHardCountsMatchesTheVisitorPathOnARealFrame) {
   grey.convertTo(intensity, CV_32F, 1.0 / 255.0);
   CameraInfo camera;
   camera.name = "cam";
-  camera.model.width = grey.cols;
-  camera.model.height = grey.rows;
-  camera.model.kind = CameraModelKind::kRadTan;
-  camera.model.fx = calibration.fx;
-  camera.model.fy = calibration.fy;
-  camera.model.cx = calibration.cx;
-  camera.model.cy = calibration.cy;
-  camera.model.distortion = calibration.distortion;
+  camera.model = io::OpenCalibCameraModel(calibration, grey.cols, grey.rows);
   LidarScan sweep;
   for (const LidarPoint& p : io::ReadPcd(dir / "calib.pcd").points) {
     if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z)) sweep.points.push_back(p);

@@ -149,13 +149,16 @@ TEST_F(UncertaintyOnSimulation, CliWritesTheEstimate) {
   // never as FORMAT.md's `sigma` (it is not the calibration's uncertainty).
   EXPECT_EQ(entry["local_sigma_tuple"].IsDefined(), entry["determined"].as<bool>());
   EXPECT_FALSE(result["lidars"]["lms_rear"]["sigma"].IsDefined());
-  // And --no-uncertainty leaves it out.
+  EXPECT_EQ(result["settings"]["occlusion"].as<std::string>(), "zbuffer (cell width/80 px, margin 0.2 x depth + 0.3 m)");
+  // And --no-uncertainty leaves it out (here with other z-buffer settings, recorded as given).
   const std::string skip = std::string(SCENECAL_CLI_PATH) + " calibrate " + (root_ / "robotcar").string() +
                            " --output " + output.string() +
-                           " --scheme joint --scenes 12 --stages 1 --max-iterations 30 --no-uncertainty > /dev/null "
-                           "2>&1";
+                           " --scheme joint --scenes 12 --stages 1 --max-iterations 30 --no-uncertainty"
+                           " --occlusion-cell 12 --occlusion-margin 0.1 --occlusion-margin-abs 0.25 > /dev/null 2>&1";
   ASSERT_EQ(std::system(skip.c_str()), 0);
-  EXPECT_FALSE(YAML::LoadFile(output.string())["uncertainty"].IsDefined());
+  const YAML::Node skipped = YAML::LoadFile(output.string());
+  EXPECT_FALSE(skipped["uncertainty"].IsDefined());
+  EXPECT_EQ(skipped["settings"]["occlusion"].as<std::string>(), "zbuffer (cell 12 px, margin 0.1 x depth + 0.25 m)");
 }
 
 }  // namespace

@@ -58,6 +58,9 @@ struct CalibrateArguments {
   double swathe_trim_margin_m = 1.0;
   double min_speed_mps = 0.5;
   bool no_occlusion = false;
+  int occlusion_cell_px = 0;              // 0 = automatic (image width / 80)
+  double occlusion_relative_margin = 0.2;  // hidden if depth > nearest * (1 + relative) + absolute
+  double occlusion_absolute_margin_m = 0.3;
   std::string rotation_pivot = "origin";
   double perturb_translation_m = 0.0;
   double perturb_rotation_deg = 0.0;
@@ -102,6 +105,9 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
   }
   options.cost.min_points_per_scene = args.min_points;
   options.cost.swathe.occlusion = !args.no_occlusion;
+  options.cost.swathe.occlusion_cell_px = args.occlusion_cell_px;
+  options.cost.swathe.occlusion_relative_margin = args.occlusion_relative_margin;
+  options.cost.swathe.occlusion_absolute_margin_m = args.occlusion_absolute_margin_m;
   options.pivot_at_observed_centroid = args.rotation_pivot == "centroid";
   options.normalisation.reflectance = *ParseNormalisation(args.normalise_reflectance);
   options.normalisation.intensity = *ParseNormalisation(args.normalise_intensity);
@@ -408,6 +414,21 @@ CommandRunner AddCalibrateCommand(CLI::App& app) {
                     "Robustness studies: start from ground_truth.yaml's T_base_lidar (moved by --perturb-*) instead "
                     "of rig.yaml's guess");
   command->add_flag("--no-occlusion", args->no_occlusion, "Disable the z-buffer occlusion test");
+  command->add_option("--occlusion-cell", args->occlusion_cell_px,
+                      "Z-buffer cell in pixels (a point is hidden when a point of its cell is nearer by the margin); 0 = "
+                      "image width / 80. Larger cells hide more of what is truly occluded between sparse points, but "
+                      "also the far part of a road seen at a grazing angle")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  command->add_option("--occlusion-margin", args->occlusion_relative_margin,
+                      "Z-buffer: a point is hidden when its depth exceeds the cell's nearest by this fraction plus "
+                      "--occlusion-margin-abs")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  command->add_option("--occlusion-margin-abs", args->occlusion_absolute_margin_m,
+                      "Z-buffer: the absolute part of the margin, metres")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
   command->add_option("--rotation-pivot", args->rotation_pivot,
                       "Point the simplex rotates the lidar about: origin (the lidar's origin) or centroid (the "
                       "centroid of the lidar points seen at the initial guess)")

@@ -9,6 +9,7 @@
 #include <memory>
 #include <sstream>
 
+#include <fmt/format.h>
 #include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 
@@ -354,7 +355,14 @@ CalibrationOutcome Calibrate(const CalibrationInput& input, const CalibrationOpt
   CalibrationResult& result = outcome.result;
   RecordCommonSettings(options, &result);
   result.settings["rotation_pivot"] = options.pivot_at_observed_centroid ? "observed centroid" : "lidar origin";
-  result.settings["occlusion"] = options.cost.swathe.occlusion ? "zbuffer" : "off";
+  result.settings["occlusion"] =
+      options.cost.swathe.occlusion
+          ? fmt::format("zbuffer (cell {} px, margin {} x depth + {} m)",
+                        options.cost.swathe.occlusion_cell_px > 0 ? std::to_string(options.cost.swathe.occlusion_cell_px)
+                                                                  : std::string("width/80"),
+                        FormatNumber(options.cost.swathe.occlusion_relative_margin),
+                        FormatNumber(options.cost.swathe.occlusion_absolute_margin_m))
+          : "off";
   const bool lbfgs = options.lower_solver == LowerSolver::kLbfgs;
   result.settings["max_iterations_per_run"] =
       std::to_string(lbfgs ? options.gradient.max_iterations : options.nelder_mead.max_iterations);

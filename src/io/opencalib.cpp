@@ -45,6 +45,19 @@ fs::path SiblingTemporary(const fs::path& target, const std::string& purpose) {
 
 }  // namespace
 
+CameraModel OpenCalibCameraModel(const OpenCalibCalibration& calibration, int width, int height) {
+  CameraModel model;
+  model.width = width;
+  model.height = height;
+  model.kind = CameraModelKind::kRadTan;
+  model.fx = calibration.fx;
+  model.fy = calibration.fy;
+  model.cx = calibration.cx;
+  model.cy = calibration.cy;
+  model.distortion = calibration.distortion;
+  return model;
+}
+
 OpenCalibCalibration ReadOpenCalibCalibration(const fs::path& calib_txt) {
   const std::string file = calib_txt.string();
   const std::string text = detail::ReadTextFile(calib_txt, 1 << 20);
@@ -143,14 +156,7 @@ OpenCalibImportSummary ImportOpenCalib(const fs::path& source_dir, const fs::pat
   rig.base_frame = "camera";
   CameraInfo camera;
   camera.name = "camera";
-  camera.model.width = image_size->first;
-  camera.model.height = image_size->second;
-  camera.model.kind = CameraModelKind::kRadTan;
-  camera.model.fx = calibration.fx;
-  camera.model.fy = calibration.fy;
-  camera.model.cx = calibration.cx;
-  camera.model.cy = calibration.cy;
-  camera.model.distortion = calibration.distortion;
+  camera.model = OpenCalibCameraModel(calibration, image_size->first, image_size->second);
   std::string why;
   if (!camera.model.IsValid(&why)) Fail((source_dir / "calib.txt").string(), "K/D", "invalid camera: " + why, "a valid radtan camera");
   ReadImage({t_us, image_path}, camera.model);  // decodes it: a corrupt image fails here, not at calibration

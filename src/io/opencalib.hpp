@@ -23,6 +23,9 @@ struct OpenCalibCalibration {
 
 OpenCalibCalibration ReadOpenCalibCalibration(const std::filesystem::path& calib_txt);
 
+// The radtan camera calib.txt describes, for an image of width x height pixels.
+CameraModel OpenCalibCameraModel(const OpenCalibCalibration& calibration, int width, int height);
+
 struct OpenCalibImportSummary {
   std::filesystem::path dataset;
   int image_width = 0, image_height = 0;  // pixels
