@@ -468,5 +468,45 @@ TEST(Simulator, CommandLineWritesADatasetAndRefusesToOverwrite) {
   fs::remove_all(dir);
 }
 
+// --vignetting changes only the fall-off towards the corners: without it the
+// corners are brighter than with the default, the centre is the same.
+TEST(Simulator, CommandLineVignettingDarkensOnlyTheCorners) {
+  const auto simulate = [](const std::string& extra, const fs::path& dir) {
+    return std::system((std::string(SCENECAL_CLI_PATH) +
+                        " -q simulate --preset robotcar --seed 4 --duration 1.5 --image-size 160x120 --no-stop " +
+                        extra + " --output " + dir.string() + " >/dev/null 2>&1")
+                           .c_str());
+  };
+  const fs::path vignetted = TempDir("vignetting_default"), flat = TempDir("vignetting_none");
+  ASSERT_EQ(simulate("", vignetted), 0);
+  ASSERT_EQ(simulate("--vignetting 0", flat), 0);
+  const io::Dataset a = io::OpenDataset(vignetted), b = io::OpenDataset(flat);
+  const CameraModel& model = a.rig.cameras.at(0).model;
+  const cv::Mat image_a = io::ReadImage(a.images.at("left").front(), model).intensity;
+  const cv::Mat image_b = io::ReadImage(b.images.at("left").front(), model).intensity;
+  double centre = 0.0, corners = 0.0;
+  int centre_count = 0, corner_count = 0;
+  for (int v = 0; v < image_a.rows; ++v) {
+    for (int u = 0; u < image_a.cols; ++u) {
+      const double du = (u - 79.5) / 80.0, dv = (v - 59.5) / 60.0;
+      const double difference = image_b.at<float>(v, u) - image_a.at<float>(v, u);
+      if (du * du + dv * dv < 0.04) {
+        centre += std::abs(difference);
+        ++centre_count;
+      } else if (std::abs(du) > 0.8 && std::abs(dv) > 0.8) {
+        corners += difference;
+        ++corner_count;
+      }
+    }
+  }
+  ASSERT_GT(centre_count, 100);
+  ASSERT_GT(corner_count, 100);
+  EXPECT_LT(centre / centre_count, 0.01);
+  EXPECT_GT(corners / corner_count, 0.03);
+  EXPECT_EQ(WEXITSTATUS(simulate("--vignetting 2", TempDir("vignetting_bad"))), 2);
+  fs::remove_all(vignetted);
+  fs::remove_all(flat);
+}
+
 }  // namespace
 }  // namespace scenecal::sim

@@ -62,6 +62,10 @@ CommandRunner AddSimulateCommand(CLI::App& app) {
       ->capture_default_str();
   cmd->add_flag("--no-stop", args->no_stop, "Drive without the short stop");
   cmd->add_flag("--no-shadows", args->no_shadows, "Render without cast shadows (faster)");
+  cmd->add_option("--vignetting", o.render.vignetting,
+                  "Relative fall-off of the image brightness at the corners (0: none)")
+      ->check(CLI::Range(0.0, 0.9))
+      ->capture_default_str();
   cmd->add_flag("--force", o.overwrite, "Replace the output directory if it is not empty");
 
   return [args]() -> int {
