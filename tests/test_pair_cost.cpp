@@ -319,5 +319,50 @@ TEST(PairCost, ZBufferCellHidesAGrazingRoadFromItself) {
   EXPECT_EQ(HiddenCount(road.swathe, 0, 0.2, 0.3), HiddenCount(road.swathe, 8, 0.2, 0.3));  // 640 / 80
 }
 
+// refresh_border_px scores only the points that project at least that many
+// pixels inside the image at the refresh; the others stay out wherever the
+// estimate then moves them, until the next refresh.
+TEST(PairCost, RefreshBorderFixesThePointSetAwayFromTheImageBorder) {
+  GrazingRoad road = MakeGrazingRoad();
+  const CameraModel& model = road.camera.model;
+  SwatheOptions options;
+  options.occlusion = false;
+  options.refresh_border_px = 40.0;
+  road.swathe.RefreshVisibility(Eigen::Isometry3d::Identity(), options);
+  // Points within 0.01 px of a limit may fall either way (float projection in the swathe).
+  std::size_t surely_visible = 0, maybe_visible = 0, inside_image = 0;
+  for (const LidarPoint& p : road.points.points) {
+    Eigen::Vector2d pixel;
+    if (!model.Project(Eigen::Vector3d(p.x, p.y, p.z), &pixel, 0.5)) continue;  // the mask does not concern it
+    ++inside_image;
+    const double distance_to_limit = std::min({pixel.x() - 40.0, pixel.y() - 40.0, 599.0 - pixel.x(), 439.0 - pixel.y()});
+    if (distance_to_limit > 0.01) ++surely_visible;
+    else if (distance_to_limit > -0.01) ++maybe_visible;
+  }
+  ASSERT_GT(inside_image, 20000u);
+  // Everything else is out, including the points outside the image now.
+  const std::size_t hidden = road.swathe.PointCount() - road.swathe.VisibleCount();
+  EXPECT_GE(hidden, road.swathe.PointCount() - surely_visible - maybe_visible);
+  EXPECT_LE(hidden, road.swathe.PointCount() - surely_visible);
+  EXPECT_GT(hidden - (road.swathe.PointCount() - inside_image), 100u);
+  // Turned by 20 px at the centre (up to 30 px at the edges), the set of scored points is the same.
+  Eigen::Isometry3d shifted = Eigen::Isometry3d::Identity();
+  shifted.linear() = Eigen::AngleAxisd(-20.0 / 500.0, Eigen::Vector3d::UnitY())
+                         .toRotationMatrix();
+  std::size_t scored_at_refresh = 0, scored_shifted = 0;
+  road.swathe.ForEachProjected(Eigen::Isometry3d::Identity(), true,
+                               [&](std::size_t, float, float, float, float) { ++scored_at_refresh; });
+  road.swathe.ForEachProjected(shifted, true, [&](std::size_t, float, float, float, float) { ++scored_shifted; });
+  EXPECT_EQ(scored_shifted, scored_at_refresh);
+  // Without the border, points enter or leave the image under the same move.
+  options.refresh_border_px = 0.0;
+  road.swathe.RefreshVisibility(Eigen::Isometry3d::Identity(), options);
+  std::size_t all_at_refresh = 0, all_shifted = 0;
+  road.swathe.ForEachProjected(Eigen::Isometry3d::Identity(), true,
+                               [&](std::size_t, float, float, float, float) { ++all_at_refresh; });
+  road.swathe.ForEachProjected(shifted, true, [&](std::size_t, float, float, float, float) { ++all_shifted; });
+  EXPECT_NE(all_shifted, all_at_refresh);
+}
+
 }  // namespace
 }  // namespace scenecal

@@ -61,6 +61,7 @@ struct CalibrateArguments {
   int occlusion_cell_px = 0;              // 0 = automatic (image width / 80)
   double occlusion_relative_margin = 0.2;  // hidden if depth > nearest * (1 + relative) + absolute
   double occlusion_absolute_margin_m = 0.3;
+  double refresh_border_px = 0.0;
   std::string rotation_pivot = "origin";
   double perturb_translation_m = 0.0;
   double perturb_rotation_deg = 0.0;
@@ -108,6 +109,7 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
   options.cost.swathe.occlusion_cell_px = args.occlusion_cell_px;
   options.cost.swathe.occlusion_relative_margin = args.occlusion_relative_margin;
   options.cost.swathe.occlusion_absolute_margin_m = args.occlusion_absolute_margin_m;
+  options.cost.swathe.refresh_border_px = args.refresh_border_px;
   options.pivot_at_observed_centroid = args.rotation_pivot == "centroid";
   options.normalisation.reflectance = *ParseNormalisation(args.normalise_reflectance);
   options.normalisation.intensity = *ParseNormalisation(args.normalise_intensity);
@@ -427,6 +429,13 @@ CommandRunner AddCalibrateCommand(CLI::App& app) {
       ->capture_default_str();
   command->add_option("--occlusion-margin-abs", args->occlusion_absolute_margin_m,
                       "Z-buffer: the absolute part of the margin, metres")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  command->add_option("--refresh-border", args->refresh_border_px,
+                      "Diagnostic: score only the points at least this many pixels inside the image where "
+                      "visibility is refreshed (each stage), a fixed set instead of points entering and leaving at "
+                      "the border; 0 = off. Not better on average (BENCHMARK.md), but it shows how much of a result "
+                      "came from the image border")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   command->add_option("--rotation-pivot", args->rotation_pivot,

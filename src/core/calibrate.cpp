@@ -363,6 +363,7 @@ CalibrationOutcome Calibrate(const CalibrationInput& input, const CalibrationOpt
                         FormatNumber(options.cost.swathe.occlusion_relative_margin),
                         FormatNumber(options.cost.swathe.occlusion_absolute_margin_m))
           : "off";
+  result.settings["refresh_border_px"] = FormatNumber(options.cost.swathe.refresh_border_px);
   const bool lbfgs = options.lower_solver == LowerSolver::kLbfgs;
   result.settings["max_iterations_per_run"] =
       std::to_string(lbfgs ? options.gradient.max_iterations : options.nelder_mead.max_iterations);

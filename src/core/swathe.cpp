@@ -22,6 +22,8 @@ bool SwatheOptions::IsValid(std::string* why) const {
   if (occlusion_cell_px < 0) return fail("occlusion_cell_px must be 0 (automatic) or positive");
   if (!(occlusion_relative_margin >= 0.0) || !(occlusion_absolute_margin_m >= 0.0))
     return fail("occlusion margins must be >= 0");
+  if (!(refresh_border_px >= 0.0) || !std::isfinite(refresh_border_px))
+    return fail("refresh_border_px must be >= 0 (pixels)");
   return true;
 }
 
@@ -637,11 +639,17 @@ std::size_t SceneSwathe::RefreshVisibility(const Eigen::Isometry3d& T_camera_lid
     n = std::min(n, depth);
     ++projected;
   });
-  if (!options.occlusion) return projected;
   const auto relative = static_cast<float>(1.0 + options.occlusion_relative_margin);
   const auto absolute = static_cast<float>(options.occlusion_absolute_margin_m);
+  const auto border = static_cast<float>(options.refresh_border_px);
+  const float u_last = static_cast<float>(image_.cols - 1) - border, v_last = static_cast<float>(image_.rows - 1) - border;
+  if (!options.occlusion && border <= 0.0f) return projected;
+  // With a border, points that do not project now (outside, behind) stay out too: a fixed set.
+  if (border > 0.0f) std::fill(visible_.begin(), visible_.end(), std::uint8_t{0});
   ForEachProjected(T_camera_lidar, false, [&](std::size_t i, float, float u, float v, float depth) {
-    if (depth > nearest[cell_of(u, v)] * relative + absolute) visible_[i] = 0;
+    const bool occluded = options.occlusion && depth > nearest[cell_of(u, v)] * relative + absolute;
+    const bool near_border = u < border || v < border || u > u_last || v > v_last;
+    visible_[i] = (occluded || near_border) ? 0 : 1;
   });
   return projected;
 }

@@ -44,6 +44,12 @@ struct SwatheOptions {
   int occlusion_cell_px = 0;
   double occlusion_relative_margin = 0.2;  // hidden if depth > nearest * (1 + relative) + absolute
   double occlusion_absolute_margin_m = 0.3;
+  // When > 0, only the points that project at least this many pixels inside
+  // the image where the visibility is refreshed are scored until the next
+  // refresh, so the set an optimiser run scores stays the same while the
+  // estimate moves them by less than this (0 = off: points enter and leave at
+  // the border).
+  double refresh_border_px = 0.0;
 
   bool IsValid(std::string* why = nullptr) const;
 };
