@@ -508,5 +508,51 @@ TEST(Simulator, CommandLineVignettingDarkensOnlyTheCorners) {
   fs::remove_all(flat);
 }
 
+// The push-broom lidar's reflectance falls with the incidence angle and the
+// range; ideal_reflectance removes both trends and nothing else: the scan of
+// the same rays (same noise keys) without them, times cos(incidence)^0.8 x
+// the range factor, is the default scan.
+TEST(Simulator, IdealReflectanceRemovesOnlyTheIncidenceAndRangeTrends) {
+  SimulationOptions options;
+  options.seed = 3;
+  const World world = World::Generate(options.seed, -20.0, 200.0);
+  const Drive drive(options.seed, {});
+  const SimulatedRig rig = MakeRig(options);
+  options.ideal_reflectance = true;
+  const SimulatedRig ideal_rig = MakeRig(options);
+  const LidarModel& model = rig.lidar_models.at("lms_rear");
+  const LidarModel& ideal = ideal_rig.lidar_models.at("lms_rear");
+  EXPECT_EQ(ideal.incidence_exponent, 0.0);
+  EXPECT_FALSE(std::isfinite(ideal.range_falloff_m));
+  int compared = 0, far_compared = 0;
+  for (double t = 2.0; t < 12.0; t += 1.0) {
+    const Eigen::Isometry3d T_world_lidar =
+        drive.T_world_vehicle(t, world) * rig.T_vehicle_base * rig.rig.lidars.at(0).T_base_lidar;
+    const std::uint64_t key = HashKey(options.seed, static_cast<std::uint64_t>(t));
+    const std::vector<LidarPoint> scan = ScanLidar(world, model, T_world_lidar, key);
+    const std::vector<LidarPoint> ideal_scan = ScanLidar(world, ideal, T_world_lidar, key);
+    ASSERT_EQ(scan.size(), ideal_scan.size());
+    for (std::size_t b = 0; b < scan.size(); ++b) {
+      if (!std::isfinite(scan[b].x) || !std::isfinite(ideal_scan[b].x)) continue;
+      ASSERT_EQ(scan[b].x, ideal_scan[b].x);  // the same geometry
+      if (ideal_scan[b].reflectance < 0.1f * static_cast<float>(model.reflectance_scale)) continue;  // additive noise
+      const Eigen::Vector3d beam = T_world_lidar.linear() * model.beam_directions[b];
+      const auto hit = world.Intersect({T_world_lidar.translation(), beam}, model.max_range_m, model.min_range_m);
+      ASSERT_TRUE(hit.has_value());
+      const double cos_incidence = std::abs(hit->normal.dot(beam));
+      const double range_factor = 1.0 / (1.0 + std::pow(hit->distance / model.range_falloff_m, 2));
+      const double expected = std::pow(cos_incidence, 0.8) * range_factor;
+      // Both share the multiplicative and the additive noise draws: the difference left is
+      // 0.004 x scale x g x (1 - expected) with g standard normal, below 0.02 x scale at 5 sigma.
+      EXPECT_NEAR(scan[b].reflectance, expected * ideal_scan[b].reflectance, 0.02 * model.reflectance_scale)
+          << "beam " << b;
+      ++compared;
+      if (hit->distance > 10.0) ++far_compared;
+    }
+  }
+  EXPECT_GT(compared, 1000);
+  EXPECT_GT(far_compared, 10);
+}
+
 }  // namespace
 }  // namespace scenecal::sim

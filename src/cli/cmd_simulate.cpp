@@ -62,6 +62,9 @@ CommandRunner AddSimulateCommand(CLI::App& app) {
       ->capture_default_str();
   cmd->add_flag("--no-stop", args->no_stop, "Drive without the short stop");
   cmd->add_flag("--no-shadows", args->no_shadows, "Render without cast shadows (faster)");
+  cmd->add_flag("--ideal-reflectance", o.ideal_reflectance,
+                "Lidar reflectance from the surface alone, without its fall-off with the incidence angle and the "
+                "range (to test what those trends do to a calibration)");
   cmd->add_option("--vignetting", o.render.vignetting,
                   "Relative fall-off of the image brightness at the corners (0: none)")
       ->check(CLI::Range(0.0, 0.9))

@@ -120,7 +120,7 @@ std::vector<LidarPoint> ScanLidar(const World& world, const LidarModel& lidar, c
     if (!hit) continue;  // sky or beyond the maximum range
     const double cos_incidence = std::abs(hit->normal.dot(direction));
     const double range_factor = 1.0 / (1.0 + std::pow(hit->distance / lidar.range_falloff_m, 2));
-    const double signal = hit->reflectivity * std::pow(cos_incidence, 0.8) * range_factor;
+    const double signal = hit->reflectivity * std::pow(cos_incidence, lidar.incidence_exponent) * range_factor;
     const std::uint64_t key = HashKey(noise_key, b);
     // Weak returns (dark surfaces, grazing incidence, far away) are lost, with a soft threshold.
     if (signal < lidar.detection_threshold * (1.0 + 0.3 * GaussianFromHash(key ^ 1))) continue;

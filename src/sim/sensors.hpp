@@ -44,7 +44,8 @@ struct LidarModel {
   double max_range_m = 50.0;
   double range_noise_m = 0.012;     // 1-sigma
   double reflectance_scale = 2000;  // reported value of a unit-reflectivity surface seen head-on, near
-  double range_falloff_m = 40.0;    // reflectance halves at this range
+  double range_falloff_m = 40.0;    // reflectance halves at this range (infinity: no fall-off)
+  double incidence_exponent = 0.8;  // reflectance ~ cos(incidence)^exponent (0: independent of the angle)
   double detection_threshold = 0.025;  // weaker returns (reflectivity x cos x range factor) are lost
 
   // SICK LMS-151: 541 beams over 270 deg in the x-y plane centred on +x, 50 m.

@@ -4,6 +4,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <mutex>
 #include <system_error>
 
@@ -127,7 +128,11 @@ SimulatedRig MakeRig(const SimulationOptions& options) {
     lidar.kind = model.kind;
     lidar.T_base_lidar = T_base_vehicle * T_vehicle_lidar;
     rig.lidars.push_back(lidar);
-    result.lidar_models[name] = model;
+    LidarModel& stored = result.lidar_models[name] = model;
+    if (options.ideal_reflectance) {
+      stored.incidence_exponent = 0.0;
+      stored.range_falloff_m = std::numeric_limits<double>::infinity();
+    }
   };
   // RobotCar SDK extrinsics of the SICK LMS-151 lidars in V.
   const Eigen::Isometry3d T_vehicle_lms_rear =

@@ -55,6 +55,9 @@ struct SimulationOptions {
   double spin_azimuth_step_deg = 0.4;
   double trajectory_rate_hz = 100.0;
   RenderSettings render;
+  // Lidar reflectance = surface reflectivity (and noise) only: no dependence on
+  // the incidence angle or the range (a test of what those trends do).
+  bool ideal_reflectance = false;
   bool overwrite = false;  // replace a non-empty output directory
 
   bool IsValid(std::string* why = nullptr) const;
