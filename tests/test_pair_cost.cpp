@@ -4,7 +4,9 @@
 // extrinsic, and the z-buffer must hide points behind a nearer surface.
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <random>
+#include <string>
 
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
@@ -362,6 +364,25 @@ TEST(PairCost, RefreshBorderFixesThePointSetAwayFromTheImageBorder) {
                                [&](std::size_t, float, float, float, float) { ++all_at_refresh; });
   road.swathe.ForEachProjected(shifted, true, [&](std::size_t, float, float, float, float) { ++all_shifted; });
   EXPECT_NE(all_shifted, all_at_refresh);
+}
+
+TEST(PairCost, SwatheOptionsRefuseBadOcclusionAndBorderSettings) {
+  std::string why;
+  EXPECT_TRUE(SwatheOptions{}.IsValid(&why)) << why;
+  const auto refused = [](auto&& change, const std::string& expected) {
+    SwatheOptions options;
+    change(options);
+    std::string message;
+    EXPECT_FALSE(options.IsValid(&message));
+    EXPECT_NE(message.find(expected), std::string::npos) << message;
+  };
+  const double inf = std::numeric_limits<double>::infinity();
+  refused([](SwatheOptions& o) { o.occlusion_cell_px = -1; }, "occlusion_cell_px");
+  refused([](SwatheOptions& o) { o.occlusion_relative_margin = -0.1; }, "occlusion margins");
+  refused([&](SwatheOptions& o) { o.occlusion_relative_margin = inf; }, "occlusion margins");
+  refused([](SwatheOptions& o) { o.occlusion_absolute_margin_m = std::nan(""); }, "occlusion margins");
+  refused([](SwatheOptions& o) { o.refresh_border_px = -1.0; }, "refresh_border_px");
+  refused([&](SwatheOptions& o) { o.refresh_border_px = inf; }, "refresh_border_px");
 }
 
 }  // namespace

@@ -99,6 +99,12 @@ std::uint64_t AlternatingSetup::Fingerprint(const CalibrationOptions& options,
   digest.Add(static_cast<std::uint64_t>(options.cost.histogram.intensity_bins));
   digest.Add(static_cast<std::uint64_t>(options.cost.metric));
   digest.Add(static_cast<std::uint64_t>(options.cost.histogram.binning));
+  const SwatheOptions& swathe = options.cost.swathe;
+  digest.Add(static_cast<std::uint64_t>(swathe.occlusion));
+  digest.Add(static_cast<std::uint64_t>(swathe.occlusion_cell_px));
+  digest.Add(swathe.occlusion_relative_margin);
+  digest.Add(swathe.occlusion_absolute_margin_m);
+  digest.Add(swathe.refresh_border_px);
   digest.Add(static_cast<std::uint64_t>(options.nelder_mead.max_iterations));
   digest.Add(static_cast<std::uint64_t>(alternating.lower_solver));
   digest.Add(static_cast<std::uint64_t>(alternating.lower_gradient.max_iterations));

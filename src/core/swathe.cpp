@@ -20,8 +20,9 @@ bool SwatheOptions::IsValid(std::string* why) const {
     return fail("ranges must satisfy 0 <= min_range_m < max_range_m (metres, finite)");
   if (!(min_depth_m > 0.0) || !std::isfinite(min_depth_m)) return fail("min_depth_m must be > 0 (metres)");
   if (occlusion_cell_px < 0) return fail("occlusion_cell_px must be 0 (automatic) or positive");
-  if (!(occlusion_relative_margin >= 0.0) || !(occlusion_absolute_margin_m >= 0.0))
-    return fail("occlusion margins must be >= 0");
+  if (!(occlusion_relative_margin >= 0.0) || !(occlusion_absolute_margin_m >= 0.0) ||
+      !std::isfinite(occlusion_relative_margin) || !std::isfinite(occlusion_absolute_margin_m))
+    return fail("occlusion margins must be finite and >= 0");
   if (!(refresh_border_px >= 0.0) || !std::isfinite(refresh_border_px))
     return fail("refresh_border_px must be >= 0 (pixels)");
   return true;
@@ -639,11 +640,11 @@ std::size_t SceneSwathe::RefreshVisibility(const Eigen::Isometry3d& T_camera_lid
     n = std::min(n, depth);
     ++projected;
   });
+  const auto border = static_cast<float>(options.refresh_border_px);
+  if (!options.occlusion && border <= 0.0f) return projected;
   const auto relative = static_cast<float>(1.0 + options.occlusion_relative_margin);
   const auto absolute = static_cast<float>(options.occlusion_absolute_margin_m);
-  const auto border = static_cast<float>(options.refresh_border_px);
   const float u_last = static_cast<float>(image_.cols - 1) - border, v_last = static_cast<float>(image_.rows - 1) - border;
-  if (!options.occlusion && border <= 0.0f) return projected;
   // With a border, points that do not project now (outside, behind) stay out too: a fixed set.
   if (border > 0.0f) std::fill(visible_.begin(), visible_.end(), std::uint8_t{0});
   ForEachProjected(T_camera_lidar, false, [&](std::size_t i, float, float u, float v, float depth) {
