@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <map>
 #include <memory>
 #include <set>
 #include <sstream>
@@ -244,6 +245,99 @@ TEST_F(CalibrateOnSimulation, CliExitCodes) {
   EXPECT_EQ(RunCli("calibrate " + flat.string() + " --output " + output.string() + " --scenes 4", &text), 1) << text;
   EXPECT_NE(text.find("cannot be calibrated"), std::string::npos) << text;
   EXPECT_FALSE(fs::exists(output));
+}
+
+// Rows of a profile CSV by profile name: (dof, offset, cost).
+struct ProfileRow {
+  std::string dof;
+  double offset = 0.0;
+  double cost = 0.0;
+};
+std::map<std::string, std::vector<ProfileRow>> ReadProfileCsv(const fs::path& path, std::string* header) {
+  std::ifstream in(path);
+  std::getline(in, *header);
+  std::map<std::string, std::vector<ProfileRow>> rows;
+  for (std::string line; std::getline(in, line);) {
+    std::vector<std::string> fields;
+    std::stringstream stream(line);
+    for (std::string field; std::getline(stream, field, ',');) fields.push_back(field);
+    if (fields.size() != 5) {
+      ADD_FAILURE() << "malformed row: " << line;
+      continue;
+    }
+    rows[fields[0]].push_back({fields[2], std::stod(fields[3]), std::stod(fields[4])});
+  }
+  return rows;
+}
+
+TEST_F(CalibrateOnSimulation, ProfileCliSamplesTheCostThroughTheTruth) {
+  const fs::path output = root_ / "profile.csv";
+  std::string text;
+  // The line toward rig.yaml's guess (5 cm and 2 deg from the truth).
+  ASSERT_EQ(RunCli("profile " + DatasetPath().string() + " --output " + output.string() +
+                       " --scenes 6 --samples 9 --half-range-translation 0.06 --half-range-rotation 1 --toward guess "
+                       "--per-scene",
+                   &text),
+            0)
+      << text;
+  std::string header;
+  const auto profiles = ReadProfileCsv(output, &header);
+  EXPECT_EQ(header, "profile,frame,dof,offset,cost");
+  ASSERT_TRUE(profiles.count("joint lms_rear")) << text;
+  ASSERT_TRUE(profiles.count("left/lms_rear"));
+  ASSERT_TRUE(profiles.count("right/lms_rear"));
+  int scene_profiles = 0;
+  for (const auto& [name, rows] : profiles) {
+    SCOPED_TRACE(name);
+    scene_profiles += name.find(" scene ") != std::string::npos;
+    ASSERT_EQ(rows.size(), 6u * 9u + 13u);  // 6 DoF of 9 samples over +-half, the line 13 over -1..2
+    // Every curve passes through the centre: the same transform, the same cost.
+    std::vector<double> at_centre;
+    for (const ProfileRow& row : rows) {
+      if (row.offset == 0.0) at_centre.push_back(row.cost);
+    }
+    ASSERT_EQ(at_centre.size(), 7u);
+    for (const double cost : at_centre) EXPECT_EQ(cost, at_centre.front());
+  }
+  EXPECT_GE(scene_profiles, 6);  // per-scene curves of both pairs
+  // The data constrain the lateral offset (x, camera right) and the rotation about the
+  // optical axis (yaw) sharply: the lowest samples of the joint curves are at the truth.
+  const auto lowest = [&](const std::string& dof) {
+    const ProfileRow* best = nullptr;
+    for (const ProfileRow& row : profiles.at("joint lms_rear")) {
+      if (row.dof == dof && (best == nullptr || row.cost < best->cost)) best = &row;
+    }
+    return best->offset;
+  };
+  EXPECT_EQ(lowest("x"), 0.0);
+  EXPECT_EQ(lowest("yaw"), 0.0);
+  // rig.yaml's guess (offset 1 on the line) costs more than the truth (offset 0).
+  double at_truth = 0.0, at_guess = 0.0;
+  for (const ProfileRow& row : profiles.at("joint lms_rear")) {
+    if (row.dof == "line" && row.offset == 0.0) at_truth = row.cost;
+    if (row.dof == "line" && std::abs(row.offset - 1.0) < 1e-9) at_guess = row.cost;
+  }
+  EXPECT_GT(at_guess, at_truth + 1e-3);
+  // The summary table on stdout names every aggregated profile, not the per-scene ones.
+  EXPECT_NE(text.find("joint lms_rear"), std::string::npos);
+  EXPECT_NE(text.find("fitted min"), std::string::npos);
+
+  // Bad requests: exit 2, no output.
+  const fs::path never = root_ / "never_profile.csv";
+  EXPECT_EQ(RunCli("profile " + DatasetPath().string() + " --output " + never.string() + " --lidar nope", &text), 2);
+  EXPECT_NE(text.find("nope"), std::string::npos) << text;
+  EXPECT_EQ(RunCli("profile " + DatasetPath().string() + " --output " + never.string() + " --at missing.yaml", &text),
+            2);
+  EXPECT_NE(text.find("missing.yaml"), std::string::npos) << text;
+  const fs::path no_truth = root_ / "no_truth";
+  fs::create_directories(no_truth);
+  for (const auto& entry : fs::directory_iterator(DatasetPath())) {
+    if (entry.path().filename() == "ground_truth.yaml") continue;
+    fs::create_symlink(entry.path(), no_truth / entry.path().filename());
+  }
+  EXPECT_EQ(RunCli("profile " + no_truth.string() + " --output " + never.string(), &text), 2);
+  EXPECT_NE(text.find("ground_truth.yaml"), std::string::npos) << text;
+  EXPECT_FALSE(fs::exists(never));
 }
 
 TEST_F(CalibrateOnSimulation, AlternatingNidRecoversTheTruthAndItsLevelsAgree) {

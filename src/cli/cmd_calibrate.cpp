@@ -19,6 +19,7 @@
 
 #include "cli/calibrate_alt.hpp"
 #include "cli/commands.hpp"
+#include "cli/cost_arguments.hpp"
 #include "cli/load_input.hpp"
 #include "cli/report_writer.hpp"
 #include "cli/uncertainty_report.hpp"
@@ -34,18 +35,9 @@ struct CalibrateArguments {
   std::string dataset;
   std::string output;
   std::string scheme = "alt";
-  std::string metric = "nid";
-  int scenes = 30;
-  double swathe_length_m = 10.0;
-  std::string direction = "forward";
-  int bins = 32;
-  bool bins_given = false;  // --bins on the command line (else single-frame 3D data gets its own default)
-  std::string binning = "hard";
-  bool binning_given = false;  // --binning on the command line (else lbfgs switches to bspline)
+  CostArguments cost;  // metric, scenes, swathes, histogram, normalisation, occlusion
   std::string lower_solver = "simplex";
   int lbfgs_iterations = 100;
-  std::string normalise_reflectance = "rank";
-  std::string normalise_intensity = "none";
   int threads = 0;
   std::uint64_t seed = 1;
   double time_budget_s = 0.0;
@@ -53,15 +45,6 @@ struct CalibrateArguments {
   std::string stages = "1:0.004:2,0.3:0.0015:1,0.1:0:1";
   double step_translation_m = 0.05;
   double step_rotation_deg = 1.0;
-  int min_points = 300;
-  int max_scans_per_scene = 0;
-  double swathe_trim_margin_m = 1.0;
-  double min_speed_mps = 0.5;
-  bool no_occlusion = false;
-  int occlusion_cell_px = 0;              // 0 = automatic (image width / 80)
-  double occlusion_relative_margin = 0.2;  // hidden if depth > nearest * (1 + relative) + absolute
-  double occlusion_absolute_margin_m = 0.3;
-  double refresh_border_px = 0.0;
   std::string rotation_pivot = "origin";
   double perturb_translation_m = 0.0;
   double perturb_rotation_deg = 0.0;
@@ -71,8 +54,9 @@ struct CalibrateArguments {
   AlternatingArguments alternating;  // --scheme alt
 };
 
-// Moves T by exactly translation_m and rotation_deg in random directions (base
-// frame, left-multiplied) drawn from rng.
+// One line on an estimate's error against the truth: FORMAT.md's translation and
+// rotation errors, then per axis (difference of translations, cm; roll, pitch,
+// yaw of R_estimate * R_truth^T, deg).
 std::string ErrorLine(const Eigen::Isometry3d& estimate, const Eigen::Isometry3d& truth) {
   const Eigen::Vector3d dt = (estimate.translation() - truth.translation()) * 100.0;
   const Eigen::Vector3d drpy = RollPitchYawFromRotation(estimate.linear() * truth.linear().transpose()) * 180.0 / kPi;
@@ -83,42 +67,24 @@ std::string ErrorLine(const Eigen::Isometry3d& estimate, const Eigen::Isometry3d
       drpy.y(), drpy.z());
 }
 
-// "SCALE[:BLUR[:RESTARTS]],..." -> stages; false when malformed.
 int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
   const auto start = std::chrono::steady_clock::now();
   CalibrationOptions options;
   // Arguments already checked by CLI11 validators; parse into the enums.
   ParseCalibrationScheme(args.scheme, &options.scheme);
-  options.cost.metric = *ParseMetricKind(args.metric);
-  options.cost.histogram.reflectance_bins = args.bins;
-  options.cost.histogram.intensity_bins = args.bins;
-  options.cost.histogram.binning = *ParseBinning(args.binning);
+  ApplyCostArguments(args.cost, &options);
   ParseLowerSolver(args.lower_solver, &options.lower_solver);
   if (options.lower_solver == LowerSolver::kLbfgs) {
-    if (!args.binning_given) {
+    if (!args.cost.BinningGiven()) {
       options.cost.histogram.binning = Binning::kBSpline;  // gradients need it; recorded in the result's settings
     } else if (options.cost.histogram.binning != Binning::kBSpline) {
       spdlog::error("--lower-solver lbfgs needs --binning bspline: with --binning {} the cost is piecewise constant "
                     "and has no gradient (use --lower-solver simplex for hard binning)",
-                    args.binning);
+                    args.cost.binning);
       return kExitInvalidInput;
     }
   }
-  options.cost.min_points_per_scene = args.min_points;
-  options.cost.swathe.occlusion = !args.no_occlusion;
-  options.cost.swathe.occlusion_cell_px = args.occlusion_cell_px;
-  options.cost.swathe.occlusion_relative_margin = args.occlusion_relative_margin;
-  options.cost.swathe.occlusion_absolute_margin_m = args.occlusion_absolute_margin_m;
-  options.cost.swathe.refresh_border_px = args.refresh_border_px;
   options.pivot_at_observed_centroid = args.rotation_pivot == "centroid";
-  options.normalisation.reflectance = *ParseNormalisation(args.normalise_reflectance);
-  options.normalisation.intensity = *ParseNormalisation(args.normalise_intensity);
-  options.scenes.scenes_per_camera = args.scenes;
-  options.scenes.swathe_length_m = args.swathe_length_m;
-  ParseSwatheDirection(args.direction, &options.scenes.direction);
-  options.scenes.max_scans_per_scene = args.max_scans_per_scene;
-  options.swathe_trim_margin_m = args.swathe_trim_margin_m;
-  options.scenes.min_speed_mps = args.min_speed_mps;
   options.nelder_mead.max_iterations = args.max_iterations;
   options.nelder_mead.initial_step_translation_m = args.step_translation_m;
   options.nelder_mead.initial_step_rotation_rad = RadiansFromDegrees(args.step_rotation_deg);
@@ -149,7 +115,7 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
 
   spdlog::info("opening {}", args.dataset);
   const io::Dataset dataset = io::OpenDataset(args.dataset);
-  const std::string single_frame_defaults = ApplySingleFrameDefaults(dataset, args.bins_given, &options);
+  const std::string single_frame_defaults = ApplySingleFrameDefaults(dataset, args.cost.BinsGiven(), &options);
   if (!single_frame_defaults.empty()) spdlog::info("single-frame 3D-lidar data: {}", single_frame_defaults);
 
   CalibrationInput input;
@@ -183,9 +149,9 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
   const bool lbfgs = options.lower_solver == LowerSolver::kLbfgs;
   spdlog::info("calibrating: scheme {}, metric {}, {} bins {}, reflectance {}, stages {}, lower solver {}, up to {} "
                "iterations a run",
-               args.scheme, args.metric, options.cost.histogram.reflectance_bins,
+               args.scheme, args.cost.metric, options.cost.histogram.reflectance_bins,
                BinningName(options.cost.histogram.binning),
-               args.normalise_reflectance, args.stages, args.lower_solver,
+               args.cost.normalise_reflectance, args.stages, args.lower_solver,
                lbfgs ? args.lbfgs_iterations : args.max_iterations);
   if (lbfgs) {
     spdlog::info("lbfgs: evaluations are counted with and without the gradient; one cost + gradient evaluation "
@@ -308,35 +274,7 @@ CommandRunner AddCalibrateCommand(CLI::App& app) {
                       "T_base_lidar, the cost summed over all cameras through the known camera transforms")
       ->check(CLI::IsMember({"once", "joint", "alt"}))
       ->capture_default_str();
-  command->add_option("--metric", args->metric, "nid (normalised information distance) or mi (mutual information)")
-      ->check(CLI::IsMember({"nid", "mi"}))
-      ->capture_default_str();
-  command->add_option("--scenes", args->scenes, "Camera frames (scenes) per camera, spread over the drive by distance")
-      ->check(CLI::Range(1, 100000))
-      ->capture_default_str();
-  command->add_option("--swathe-length", args->swathe_length_m,
-                      "Swathe length L in metres: the scans taken while the vehicle travels L m")
-      ->check(CLI::PositiveNumber)
-      ->capture_default_str();
-  command->add_option("--direction", args->direction,
-                      "Swathe window: forward (the L m after the frame), backward (before), both (L m each side)")
-      ->check(CLI::IsMember({"forward", "backward", "both"}))
-      ->capture_default_str();
-  CLI::Option* bins_option =
-      command
-          ->add_option("--bins", args->bins,
-                       "Histogram bins per variable (reflectance and intensity). Default: 32, but " +
-                           std::to_string(kSingleFrameBins) +
-                           " on single-frame 3D-lidar data (a static dataset, e.g. from import opencalib)")
-          ->check(CLI::Range(2, 512))
-          ->capture_default_str();
-  CLI::Option* binning_option =
-      command
-          ->add_option("--binning", args->binning,
-                       "hard (one bin per sample) or bspline (cubic B-spline Parzen window, smooth). Default: hard, "
-                       "but bspline with --lower-solver lbfgs")
-          ->check(CLI::IsMember({"hard", "bspline"}))
-          ->capture_default_str();
+  AddCostOptions(command, &args->cost);
   command->add_option("--lower-solver", args->lower_solver,
                       "Local optimiser of every stage (once, joint) and of the alt lower level: simplex (Nelder-Mead, "
                       "the paper; derivative free, any binning) or lbfgs (quasi-Newton with analytic gradients of the "
@@ -348,15 +286,6 @@ CommandRunner AddCalibrateCommand(CLI::App& app) {
                       "--lower-solver lbfgs: iterations per run (per stage, per alt lower level); --step-translation "
                       "and --step-rotation set its parameter scales")
       ->check(CLI::Range(1, 1000000))
-      ->capture_default_str();
-  command->add_option("--normalise", args->normalise_reflectance,
-                      "Mapping of lidar reflectance to [0, 1] per scene: none, minmax (1st..99th percentile), rank "
-                      "(histogram equalisation)")
-      ->check(CLI::IsMember({"none", "minmax", "rank"}))
-      ->capture_default_str();
-  command->add_option("--normalise-intensity", args->normalise_intensity,
-                      "Mapping of image intensity to [0, 1] per image: none, minmax, rank")
-      ->check(CLI::IsMember({"none", "minmax", "rank"}))
       ->capture_default_str();
   command->add_option("--threads", args->threads, "Worker threads; 0 = all hardware threads")
       ->check(CLI::NonNegativeNumber)
@@ -397,47 +326,9 @@ CommandRunner AddCalibrateCommand(CLI::App& app) {
                       "Initial simplex step (lbfgs: parameter scale), degrees (first stage)")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
-  command->add_option("--min-points", args->min_points,
-                      "Projected points a scene needs to count (scenes with fewer are ignored)")
-      ->check(CLI::Range(1, 100000000))
-      ->capture_default_str();
-  command->add_option("--max-scans-per-scene", args->max_scans_per_scene,
-                      "Cap on scans per swathe (evenly thinned); 0 = no cap")
-      ->check(CLI::NonNegativeNumber)
-      ->capture_default_str();
-  command->add_option("--swathe-trim", args->swathe_trim_margin_m,
-                      "Keep only the scans of a swathe whose points reach the image at the initial guess, plus this "
-                      "margin (metres of travel) either side; negative keeps every scan of the window")
-      ->capture_default_str();
-  command->add_option("--min-speed", args->min_speed_mps, "Frames taken below this speed (m/s) are skipped")
-      ->check(CLI::NonNegativeNumber)
-      ->capture_default_str();
   command->add_flag("--perturb-from-truth", args->perturb_from_truth,
                     "Robustness studies: start from ground_truth.yaml's T_base_lidar (moved by --perturb-*) instead "
                     "of rig.yaml's guess");
-  command->add_flag("--no-occlusion", args->no_occlusion, "Disable the z-buffer occlusion test");
-  command->add_option("--occlusion-cell", args->occlusion_cell_px,
-                      "Z-buffer cell in pixels (a point is hidden when a point of its cell is nearer by the margin); 0 = "
-                      "image width / 80. Larger cells hide more of what is truly occluded between sparse points, but "
-                      "also the far part of a road seen at a grazing angle")
-      ->check(CLI::NonNegativeNumber)
-      ->capture_default_str();
-  command->add_option("--occlusion-margin", args->occlusion_relative_margin,
-                      "Z-buffer: a point is hidden when its depth exceeds the cell's nearest by this fraction plus "
-                      "--occlusion-margin-abs")
-      ->check(CLI::NonNegativeNumber)
-      ->capture_default_str();
-  command->add_option("--occlusion-margin-abs", args->occlusion_absolute_margin_m,
-                      "Z-buffer: the absolute part of the margin, metres")
-      ->check(CLI::NonNegativeNumber)
-      ->capture_default_str();
-  command->add_option("--refresh-border", args->refresh_border_px,
-                      "Diagnostic: score only the points at least this many pixels inside the image where "
-                      "visibility is refreshed (each stage), a fixed set instead of points entering and leaving at "
-                      "the border; 0 = off. Not better on average (BENCHMARK.md), but it shows how much of a result "
-                      "came from the image border")
-      ->check(CLI::NonNegativeNumber)
-      ->capture_default_str();
   command->add_option("--rotation-pivot", args->rotation_pivot,
                       "Point the simplex rotates the lidar about: origin (the lidar's origin) or centroid (the "
                       "centroid of the lidar points seen at the initial guess)")
@@ -485,11 +376,7 @@ CommandRunner AddCalibrateCommand(CLI::App& app) {
                       "alt: the same for rotation, degrees")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
-  return [args, binning_option, bins_option] {
-    args->binning_given = binning_option->count() > 0;
-    args->bins_given = bins_option->count() > 0;
-    return Run(*args);
-  };
+  return [args] { return Run(*args); };
 }
 
 }  // namespace scenecal::cli

@@ -20,5 +20,6 @@ CommandRunner AddInspectCommand(CLI::App& app);
 CommandRunner AddImportCommand(CLI::App& app);
 CommandRunner AddCalibrateCommand(CLI::App& app);
 CommandRunner AddExperimentCommand(CLI::App& app);
+CommandRunner AddProfileCommand(CLI::App& app);
 
 }  // namespace scenecal::cli

@@ -38,6 +38,7 @@ int main(int argc, char** argv) {
   add(AddImportCommand(app));
   add(AddCalibrateCommand(app));
   add(AddExperimentCommand(app));
+  add(AddProfileCommand(app));
 
   try {
     app.parse(argc, argv);

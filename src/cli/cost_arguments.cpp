@@ -1,0 +1,108 @@
+#include "cli/cost_arguments.hpp"
+
+#include "cli/load_input.hpp"
+
+namespace scenecal::cli {
+
+void AddCostOptions(CLI::App* command, CostArguments* args) {
+  command->add_option("--metric", args->metric, "nid (normalised information distance) or mi (mutual information)")
+      ->check(CLI::IsMember({"nid", "mi"}))
+      ->capture_default_str();
+  command->add_option("--scenes", args->scenes, "Camera frames (scenes) per camera, spread over the drive by distance")
+      ->check(CLI::Range(1, 100000))
+      ->capture_default_str();
+  command->add_option("--swathe-length", args->swathe_length_m,
+                      "Swathe length L in metres: the scans taken while the vehicle travels L m")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  command->add_option("--direction", args->direction,
+                      "Swathe window: forward (the L m after the frame), backward (before), both (L m each side)")
+      ->check(CLI::IsMember({"forward", "backward", "both"}))
+      ->capture_default_str();
+  args->bins_option =
+      command
+          ->add_option("--bins", args->bins,
+                       "Histogram bins per variable (reflectance and intensity). Default: 32, but " +
+                           std::to_string(kSingleFrameBins) +
+                           " on single-frame 3D-lidar data (a static dataset, e.g. from import opencalib)")
+          ->check(CLI::Range(2, 512))
+          ->capture_default_str();
+  args->binning_option =
+      command
+          ->add_option("--binning", args->binning,
+                       "hard (one bin per sample) or bspline (cubic B-spline Parzen window, smooth). Default: hard, "
+                       "but bspline with --lower-solver lbfgs")
+          ->check(CLI::IsMember({"hard", "bspline"}))
+          ->capture_default_str();
+  command->add_option("--normalise", args->normalise_reflectance,
+                      "Mapping of lidar reflectance to [0, 1] per scene: none, minmax (1st..99th percentile), rank "
+                      "(histogram equalisation)")
+      ->check(CLI::IsMember({"none", "minmax", "rank"}))
+      ->capture_default_str();
+  command->add_option("--normalise-intensity", args->normalise_intensity,
+                      "Mapping of image intensity to [0, 1] per image: none, minmax, rank")
+      ->check(CLI::IsMember({"none", "minmax", "rank"}))
+      ->capture_default_str();
+  command->add_option("--min-points", args->min_points,
+                      "Projected points a scene needs to count (scenes with fewer are ignored)")
+      ->check(CLI::Range(1, 100000000))
+      ->capture_default_str();
+  command->add_option("--max-scans-per-scene", args->max_scans_per_scene,
+                      "Cap on scans per swathe (evenly thinned); 0 = no cap")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  command->add_option("--swathe-trim", args->swathe_trim_margin_m,
+                      "Keep only the scans of a swathe whose points reach the image at the initial guess, plus this "
+                      "margin (metres of travel) either side; negative keeps every scan of the window")
+      ->capture_default_str();
+  command->add_option("--min-speed", args->min_speed_mps, "Frames taken below this speed (m/s) are skipped")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  command->add_flag("--no-occlusion", args->no_occlusion, "Disable the z-buffer occlusion test");
+  command->add_option("--occlusion-cell", args->occlusion_cell_px,
+                      "Z-buffer cell in pixels (a point is hidden when a point of its cell is nearer by the margin); 0 = "
+                      "image width / 80. Larger cells hide more of what is truly occluded between sparse points, but "
+                      "also the far part of a road seen at a grazing angle")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  command->add_option("--occlusion-margin", args->occlusion_relative_margin,
+                      "Z-buffer: a point is hidden when its depth exceeds the cell's nearest by this fraction plus "
+                      "--occlusion-margin-abs")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  command->add_option("--occlusion-margin-abs", args->occlusion_absolute_margin_m,
+                      "Z-buffer: the absolute part of the margin, metres")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  command->add_option("--refresh-border", args->refresh_border_px,
+                      "Diagnostic: score only the points at least this many pixels inside the image where "
+                      "visibility is refreshed (each stage), a fixed set instead of points entering and leaving at "
+                      "the border; 0 = off. Not better on average (BENCHMARK.md), but it shows how much of a result "
+                      "came from the image border")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+}
+
+void ApplyCostArguments(const CostArguments& args, CalibrationOptions* options) {
+  // Values already checked by CLI11 validators; parse into the enums.
+  options->cost.metric = *ParseMetricKind(args.metric);
+  options->cost.histogram.reflectance_bins = args.bins;
+  options->cost.histogram.intensity_bins = args.bins;
+  options->cost.histogram.binning = *ParseBinning(args.binning);
+  options->cost.min_points_per_scene = args.min_points;
+  options->cost.swathe.occlusion = !args.no_occlusion;
+  options->cost.swathe.occlusion_cell_px = args.occlusion_cell_px;
+  options->cost.swathe.occlusion_relative_margin = args.occlusion_relative_margin;
+  options->cost.swathe.occlusion_absolute_margin_m = args.occlusion_absolute_margin_m;
+  options->cost.swathe.refresh_border_px = args.refresh_border_px;
+  options->normalisation.reflectance = *ParseNormalisation(args.normalise_reflectance);
+  options->normalisation.intensity = *ParseNormalisation(args.normalise_intensity);
+  options->scenes.scenes_per_camera = args.scenes;
+  options->scenes.swathe_length_m = args.swathe_length_m;
+  ParseSwatheDirection(args.direction, &options->scenes.direction);
+  options->scenes.max_scans_per_scene = args.max_scans_per_scene;
+  options->swathe_trim_margin_m = args.swathe_trim_margin_m;
+  options->scenes.min_speed_mps = args.min_speed_mps;
+}
+
+}  // namespace scenecal::cli

@@ -1,0 +1,47 @@
+// The options that define a pair's cost (scenes, swathes, histogram, metric,
+// normalisation, occlusion), shared by `calibrate` and `profile` so both
+// build exactly the same cost from the same command-line words.
+#pragma once
+
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+#include "core/calibrate.hpp"
+
+namespace scenecal::cli {
+
+struct CostArguments {
+  std::string metric = "nid";
+  int scenes = 30;
+  double swathe_length_m = 10.0;
+  std::string direction = "forward";
+  int bins = 32;
+  std::string binning = "hard";
+  std::string normalise_reflectance = "rank";
+  std::string normalise_intensity = "none";
+  int min_points = 300;
+  int max_scans_per_scene = 0;
+  double swathe_trim_margin_m = 1.0;
+  double min_speed_mps = 0.5;
+  bool no_occlusion = false;
+  int occlusion_cell_px = 0;               // 0 = automatic (image width / 80)
+  double occlusion_relative_margin = 0.2;  // hidden if depth > nearest * (1 + relative) + absolute
+  double occlusion_absolute_margin_m = 0.3;
+  double refresh_border_px = 0.0;
+  // Set by AddCostOptions; after parsing, count() > 0 when given on the command line.
+  CLI::Option* bins_option = nullptr;
+  CLI::Option* binning_option = nullptr;
+
+  bool BinsGiven() const { return bins_option != nullptr && bins_option->count() > 0; }
+  bool BinningGiven() const { return binning_option != nullptr && binning_option->count() > 0; }
+};
+
+// Registers the cost options on `command` (values validated by CLI11).
+void AddCostOptions(CLI::App* command, CostArguments* args);
+
+// Copies the parsed cost options into `options` (metric, histogram, swathe,
+// occlusion, normalisation, scene selection, trimming).
+void ApplyCostArguments(const CostArguments& args, CalibrationOptions* options);
+
+}  // namespace scenecal::cli
