@@ -16,7 +16,9 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 #include <unistd.h>
+#include <yaml-cpp/yaml.h>
 
+#include "core/basin_check.hpp"
 #include "core/calibrate.hpp"
 #include "core/calibrate_alternating.hpp"
 #include "core/geometry.hpp"
@@ -224,6 +226,14 @@ TEST_F(CalibrateOnSimulation, CliWritesResultAndPrintsErrors) {
   EXPECT_NE(text.find("dx"), std::string::npos);
   EXPECT_NE(text.find("dpitch"), std::string::npos);
   EXPECT_NE(text.find("pair right/lms_rear T_camera_lidar error"), std::string::npos);
+  // The basin check ran (on by default) and is recorded: six restarts, each with its distance and cost.
+  const YAML::Node basin = YAML::LoadFile(output.string())["basin_check"]["lms_rear"];
+  ASSERT_TRUE(basin.IsMap()) << text;
+  EXPECT_TRUE(basin["checked"].as<bool>());
+  ASSERT_EQ(basin["restarts"].size(), 6u);
+  EXPECT_EQ(basin["restarts"][0]["start"].as<std::string>(), "-1 deg about base x");
+  EXPECT_GE(basin["restarts"][5]["rotation_apart_deg"].as<double>(), 0.0);
+  EXPECT_NE(text.find("basin check"), std::string::npos);
 }
 
 TEST_F(CalibrateOnSimulation, CliExitCodes) {
@@ -338,6 +348,83 @@ TEST_F(CalibrateOnSimulation, ProfileCliSamplesTheCostThroughTheTruth) {
   EXPECT_EQ(RunCli("profile " + no_truth.string() + " --output " + never.string(), &text), 2);
   EXPECT_NE(text.find("ground_truth.yaml"), std::string::npos) << text;
   EXPECT_FALSE(fs::exists(never));
+}
+
+TEST_F(CalibrateOnSimulation, BasinCheckRestartsAboutEachAxisAndComparesTheEnds) {
+  const io::Dataset dataset = io::OpenDataset(DatasetPath());
+  CalibrationOptions options;
+  options.scheme = CalibrationScheme::kJoint;
+  options.scenes.scenes_per_camera = 8;
+  const CalibrationInput input = Load(dataset, options.scenes);
+  // A result at the truth: the check needs only the answer.
+  CalibrationResult result;
+  result.lidars.push_back({"lms_rear", dataset.ground_truth->T_base_lidar.at("lms_rear"), std::nullopt});
+  BasinCheckOptions check_options;
+  std::string why;
+  ASSERT_TRUE(check_options.IsValid(&why)) << why;
+  std::vector<std::string> messages;
+  const std::vector<LidarBasinCheck> checks =
+      CheckBasins(input, options, result, check_options, [&](const std::string& m) { messages.push_back(m); });
+  ASSERT_EQ(checks.size(), 1u);
+  const LidarBasinCheck& check = checks[0];
+  ASSERT_TRUE(check.checked) << check.why;
+  ASSERT_EQ(check.restarts.size(), 6u);
+  EXPECT_EQ(messages.size(), 6u);
+
+  // The reference: the joint cost with sharp images and visibility at the answer, rebuilt here.
+  std::vector<std::unique_ptr<PairCost>> owned;
+  std::vector<const PairCost*> pairs;
+  for (const CameraInfo& camera : input.rig.cameras) {
+    owned.push_back(std::make_unique<PairCost>(BuildPairCost(input, camera, "lms_rear", options)));
+    owned.back()->RefreshVisibility(camera.T_base_camera.inverse() * result.lidars[0].T_base_lidar);
+    pairs.push_back(owned.back().get());
+  }
+  EXPECT_DOUBLE_EQ(check.cost_answer, EvaluateJoint(pairs, result.lidars[0].T_base_lidar));
+  bool agree = true;
+  double max_t = 0.0, max_r = 0.0;
+  for (std::size_t i = 0; i < check.restarts.size(); ++i) {
+    const BasinRestart& restart = check.restarts[i];
+    SCOPED_TRACE(i);
+    EXPECT_EQ(restart.axis, static_cast<int>(i / 2));  // x-, x+, y-, y+, z-, z+
+    EXPECT_EQ(restart.sign, i % 2 == 0 ? -1.0 : 1.0);
+    EXPECT_GT(restart.evaluations, 0);
+    const Eigen::Isometry3d& end = restart.T_base_lidar_end;
+    EXPECT_NEAR(restart.translation_apart_m, TranslationError(end, result.lidars[0].T_base_lidar), 1e-12);
+    EXPECT_NEAR(restart.rotation_apart_rad,
+                RadiansFromDegrees(RotationErrorDegrees(end, result.lidars[0].T_base_lidar)), 1e-12);
+    EXPECT_DOUBLE_EQ(restart.cost_end, EvaluateJoint(pairs, end));
+    // The optimiser moved: it did not stay at its start (1 deg from the answer).
+    const Eigen::Isometry3d start = ApplyTransformUpdate(
+        result.lidars[0].T_base_lidar,
+        (Vector6d() << 0, 0, 0, restart.axis == 0 ? restart.sign : 0.0, restart.axis == 1 ? restart.sign : 0.0,
+         restart.axis == 2 ? restart.sign : 0.0)
+                .finished() *
+            check_options.offset_rad,
+        TransformUpdate::kAboutSourcePoint);
+    EXPECT_GT(RotationErrorDegrees(end, start), 0.05);
+    agree = agree && restart.translation_apart_m <= check_options.agree_translation_m &&
+            restart.rotation_apart_rad <= check_options.agree_rotation_rad;
+    max_t = std::max(max_t, restart.translation_apart_m);
+    max_r = std::max(max_r, restart.rotation_apart_rad);
+  }
+  EXPECT_EQ(check.agree, agree);
+  EXPECT_EQ(check.max_translation_apart_m, max_t);
+  EXPECT_EQ(check.max_rotation_apart_rad, max_r);
+  std::cout << "[ measured ] basin check from the truth: restarts up to " << 100.0 * max_t << " cm, "
+            << DegreesFromRadians(max_r) << " deg apart\n";
+
+  // Starts 10 deg away are far outside any basin of a push-broom swathe: the runs cannot all come back.
+  BasinCheckOptions far = check_options;
+  far.offset_rad = RadiansFromDegrees(10.0);
+  const std::vector<LidarBasinCheck> far_checks = CheckBasins(input, options, result, far);
+  ASSERT_EQ(far_checks.size(), 1u);
+  EXPECT_FALSE(far_checks[0].agree);
+  EXPECT_GT(DegreesFromRadians(far_checks[0].max_rotation_apart_rad), 1.0);
+
+  BasinCheckOptions bad = check_options;
+  bad.offset_rad = 0.0;
+  EXPECT_FALSE(bad.IsValid(&why));
+  EXPECT_NE(why.find("offset"), std::string::npos);
 }
 
 TEST_F(CalibrateOnSimulation, AlternatingNidRecoversTheTruthAndItsLevelsAgree) {

@@ -51,6 +51,8 @@ struct CalibrateArguments {
   bool perturb_from_truth = false;
   std::string report_dir;  // --report: HTML report directory; empty = none
   bool no_uncertainty = false;  // --no-uncertainty: skip the uncertainty estimate
+  bool no_basin_check = false;  // --no-basin-check: skip the restarts from further away
+  double basin_offset_deg = 1.0;
   AlternatingArguments alternating;  // --scheme alt
 };
 
@@ -197,6 +199,7 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
   }
   YAML::Node extra(YAML::NodeType::Map);
   if (!args.no_uncertainty) extra["uncertainty"] = ReportUncertainty(input, options, &result);
+  if (!args.no_basin_check) extra["basin_check"] = ReportBasinCheck(input, options, args.basin_offset_deg, &result);
   result.timings_s["total"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   for (const std::string& warning : result.warnings) spdlog::warn("{}", warning);
   if (alternating_run) {
@@ -338,6 +341,15 @@ CommandRunner AddCalibrateCommand(CLI::App& app) {
                     "Skip the uncertainty estimate after the calibration (by default each lidar gets a local "
                     "1-sigma per parameter, or a warning naming the directions the data do not determine; ~130 "
                     "cost evaluations: seconds for push-broom swathes, minutes for dense 3D sweeps)");
+  command->add_flag("--no-basin-check", args->no_basin_check,
+                    "Skip the basin check after the calibration (by default the joint cost is minimised again from "
+                    "the answer turned +-1 deg about each base axis, and a warning says when those runs end apart: "
+                    "the data then do not pin the extrinsic down, however small the local sigma; ~6 x the final "
+                    "stages' evaluations)");
+  command->add_option("--basin-offset", args->basin_offset_deg,
+                      "Basin check: turn the restarts' starts this many degrees away from the answer")
+      ->check(CLI::Range(0.01, 44.9))
+      ->capture_default_str();
   command->add_option("--report", args->report_dir,
                       "Write an HTML report with convergence, cost slices and overlays into this directory "
                       "(report.html and PNGs)");

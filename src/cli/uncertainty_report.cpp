@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include "core/basin_check.hpp"
 #include "core/uncertainty.hpp"
 
 namespace scenecal::cli {
@@ -93,6 +94,79 @@ YAML::Node ReportUncertainty(const CalibrationInput& input, const CalibrationOpt
     node[lidar.lidar] = entry;
   }
   result->timings_s["uncertainty"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return node;
+}
+
+YAML::Node ReportBasinCheck(const CalibrationInput& input, const CalibrationOptions& options, double offset_deg,
+                            CalibrationResult* result) {
+  const auto start = std::chrono::steady_clock::now();
+  BasinCheckOptions check_options;
+  check_options.offset_rad = RadiansFromDegrees(offset_deg);
+  spdlog::info("basin check: minimising the joint cost again from the answer turned +-{} deg about each base axis "
+               "(6 runs per lidar; --no-basin-check skips it)",
+               offset_deg);
+  const std::vector<LidarBasinCheck> checks =
+      CheckBasins(input, options, *result, check_options, [](const std::string& message) { spdlog::info("{}", message); });
+  const double deg = 180.0 / M_PI;
+  YAML::Node node(YAML::NodeType::Map);
+  for (const LidarBasinCheck& check : checks) {
+    YAML::Node entry(YAML::NodeType::Map);
+    entry["method"] = fmt::format(
+        "joint cost minimised again (stages {} on of the schedule) from the answer turned +-{} deg about each base "
+        "axis through the lidar origin; agree = every run ends within {} cm and {} deg of the answer; costs with "
+        "sharp images and visibility at the answer",
+        check_options.first_stage + 1, offset_deg, 100.0 * check_options.agree_translation_m,
+        check_options.agree_rotation_rad * deg);
+    entry["checked"] = check.checked;
+    if (!check.checked) {
+      entry["why"] = check.why;
+      spdlog::warn("lidar {}: no basin check: {}", check.lidar, check.why);
+      node[check.lidar] = entry;
+      continue;
+    }
+    entry["agree"] = check.agree;
+    entry["cost_answer"] = check.cost_answer;
+    entry["max_translation_apart_m"] = check.max_translation_apart_m;
+    entry["max_rotation_apart_deg"] = check.max_rotation_apart_rad * deg;
+    YAML::Node restarts(YAML::NodeType::Sequence);
+    double lowest_cost = check.cost_answer;
+    const BasinRestart* lowest = nullptr;
+    for (const BasinRestart& restart : check.restarts) {
+      YAML::Node item(YAML::NodeType::Map);
+      item["start"] = fmt::format("{:+g} deg about base {}", restart.sign * offset_deg, "xyz"[restart.axis]);
+      item["translation_apart_m"] = restart.translation_apart_m;
+      item["rotation_apart_deg"] = restart.rotation_apart_rad * deg;
+      item["cost"] = restart.cost_end;
+      const Vector6d end = TupleFromTransform(restart.T_base_lidar_end);
+      item["T_base_lidar"] = Numbers(end.data(), 6);
+      restarts.push_back(item);
+      if (restart.cost_end < lowest_cost) {
+        lowest_cost = restart.cost_end;
+        lowest = &restart;
+      }
+    }
+    entry["restarts"] = restarts;
+    entry["evaluations"] = check.evaluations;
+    entry["seconds"] = check.seconds;
+    node[check.lidar] = entry;
+    if (check.agree) {
+      spdlog::info("lidar {}: basin check passed: the 6 restarts ended within {:.2f} cm and {:.3f} deg of the answer",
+                   check.lidar, 100.0 * check.max_translation_apart_m, check.max_rotation_apart_rad * deg);
+      continue;
+    }
+    std::string where;
+    if (lowest != nullptr) {
+      where = fmt::format("; the start turned {:+g} deg about base {} ended at a lower cost ({:.6f} against {:.6f})",
+                          lowest->sign * offset_deg, "xyz"[lowest->axis], lowest->cost_end, check.cost_answer);
+    }
+    result->warnings.push_back(fmt::format(
+        "lidar {}: basin check: restarts from the answer turned +-{} deg about each base axis ended up to {:.2f} cm "
+        "and {:.3f} deg from it{}. The data do not pin the extrinsic down better than that, whatever the local "
+        "sigma says; the result along that direction depends on the initial guess. Add scenes with structure off "
+        "the ground, a longer drive (--scenes), or check the odometry (its drift over the swathe biases the tilt)",
+        check.lidar, offset_deg, 100.0 * check.max_translation_apart_m, check.max_rotation_apart_rad * deg, where));
+  }
+  result->timings_s["basin_check"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return node;
 }
 

@@ -2,7 +2,8 @@
 // (core/uncertainty.hpp), logged, written into the result under the extra key
 // `uncertainty` (a LOCAL 1-sigma, within the optimiser's basin; FORMAT.md's
 // `sigma` stays unset as it would be read as the calibration's uncertainty),
-// and turned into warnings where a direction is not determined.
+// and turned into warnings where a direction is not determined; and the
+// global check that restarts from further away.
 #pragma once
 
 #include <yaml-cpp/yaml.h>
@@ -16,5 +17,12 @@ namespace scenecal::cli {
 // the `uncertainty` mapping (by lidar name) for the result file. Logs with spdlog.
 YAML::Node ReportUncertainty(const CalibrationInput& input, const CalibrationOptions& options,
                              CalibrationResult* result);
+
+// The global check (core/basin_check.hpp): restarts from the answer turned
+// +-offset_deg about each base axis; logs each, adds a warning per lidar whose
+// restarts do not come back, and returns the `basin_check` mapping (by lidar
+// name) for the result file.
+YAML::Node ReportBasinCheck(const CalibrationInput& input, const CalibrationOptions& options, double offset_deg,
+                            CalibrationResult* result);
 
 }  // namespace scenecal::cli

@@ -250,6 +250,19 @@ std::string DescribeEvaluations(LowerSolver solver, int evaluations, int gradien
   return text;
 }
 
+std::optional<Eigen::Vector3d> ObservedCentroid(const std::vector<const PairCost*>& pairs,
+                                                const Eigen::Isometry3d& T_base_lidar) {
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  std::size_t count = 0;
+  for (const PairCost* pair : pairs) {
+    std::size_t n = 0;
+    sum += pair->SumProjectedLidarPoints(pair->Camera().T_base_camera.inverse() * T_base_lidar, &n);
+    count += n;
+  }
+  if (count == 0) return std::nullopt;
+  return sum / static_cast<double>(count);
+}
+
 void PreparePairForStage(PairCost& pair, const OptimisationStage& stage, const Eigen::Isometry3d& T_camera_lidar) {
   pair.SetImageBlur(stage.blur_fraction);
   pair.RefreshVisibility(T_camera_lidar);
@@ -471,14 +484,7 @@ CalibrationOutcome Calibrate(const CalibrationInput& input, const CalibrationOpt
       Eigen::Isometry3d T_base_lidar = lidar.T_base_lidar;
       NelderMeadOptions nelder_mead = options.nelder_mead;
       if (options.pivot_at_observed_centroid) {
-        Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-        std::size_t count = 0;
-        for (const auto& pair : problem.pairs) {
-          std::size_t n = 0;
-          sum += pair->SumProjectedLidarPoints(pair->Camera().T_base_camera.inverse() * T_base_lidar, &n);
-          count += n;
-        }
-        if (count > 0) nelder_mead.pivot_source = sum / static_cast<double>(count);
+        nelder_mead.pivot_source = ObservedCentroid(pairs, T_base_lidar).value_or(nelder_mead.pivot_source);
       }
       optimise(
           "joint " + lidar.name, EvaluateJoint(pairs, T_base_lidar), nelder_mead,
@@ -506,9 +512,7 @@ CalibrationOutcome Calibrate(const CalibrationInput& input, const CalibrationOpt
         }
         NelderMeadOptions nelder_mead = options.nelder_mead;
         if (options.pivot_at_observed_centroid) {
-          std::size_t count = 0;
-          const Eigen::Vector3d sum = pair.SumProjectedLidarPoints(T_camera_lidar[p], &count);
-          if (count > 0) nelder_mead.pivot_source = sum / static_cast<double>(count);
+          nelder_mead.pivot_source = ObservedCentroid({&pair}, lidar.T_base_lidar).value_or(nelder_mead.pivot_source);
         }
         optimise(
             "once " + pair.Camera().name + "/" + lidar.name, initial_costs[p], nelder_mead,

@@ -191,6 +191,13 @@ std::string DescribeUnusable(const std::string& lidar, const std::vector<std::un
 // The diagnostics of a pair in its current state (scenes used at its last refresh).
 PairReport MakePairReport(const PairCost& pair, const Eigen::Isometry3d& T_initial, double initial_cost);
 
+// Centroid (lidar frame, metres) of the visible points of the used scenes that
+// project under T_base_lidar, over every pair (T_camera_lidar = T_base_camera^-1
+// * T_base_lidar); nothing when no point projects. The rotation pivot of
+// CalibrationOptions::pivot_at_observed_centroid.
+std::optional<Eigen::Vector3d> ObservedCentroid(const std::vector<const PairCost*>& pairs,
+                                                const Eigen::Isometry3d& T_base_lidar);
+
 // Prepares a pair for a stage: blur and visibility at T_camera_lidar.
 void PreparePairForStage(PairCost& pair, const OptimisationStage& stage, const Eigen::Isometry3d& T_camera_lidar);
 

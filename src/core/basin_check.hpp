@@ -1,0 +1,75 @@
+// A global check of a calibration result: do the data pin each lidar's
+// extrinsic down, or only the optimiser's path?
+//
+// The local uncertainty (core/uncertainty.hpp) measures the spread within
+// the basin the optimiser ended in. On a push-broom swathe the cost can be
+// flat for degrees along a tilt coupled with a shift (BENCHMARK.md, "Why the
+// tilt is weak"): the local sigma is then small, yet runs from other starts
+// end degrees apart. This check measures that directly. For each lidar the
+// joint cost (mean over cameras through the known T_base_camera) is
+// minimised again from starts turned by +-offset about each base axis
+// (through the lidar's origin) away from the answer, with the later stages
+// of the calibration's coarse-to-fine schedule and its lower solver. The
+// runs agree when every one ends within agree_* of the answer; otherwise the
+// spread, and each end's cost against the answer's (sharp images, visibility
+// refreshed at the answer for both), tell a flat valley (equal costs: the
+// data cannot choose) from a better minimum elsewhere (lower cost).
+//
+// Core rules: no files, no printing; progress through the callback.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "core/calibrate.hpp"
+#include "core/calibration_result.hpp"
+#include "core/geometry.hpp"
+
+namespace scenecal {
+
+struct BasinCheckOptions {
+  double offset_rad = RadiansFromDegrees(1.0);  // each start is the answer turned this much about one base axis
+  // The runs agree when each ends within both of these of the answer.
+  double agree_translation_m = 0.01;
+  double agree_rotation_rad = RadiansFromDegrees(0.1);
+  // The restarts run the calibration's stages from this index on (0-based,
+  // clamped to the last stage): by default the blurred middle stage and the
+  // sharp final one, whose steps cover the offset.
+  int first_stage = 2;
+
+  bool IsValid(std::string* why = nullptr) const;
+};
+
+struct BasinRestart {
+  int axis = 0;         // base axis of the start's rotation: 0 x, 1 y, 2 z
+  double sign = 1.0;    // +1 or -1
+  Eigen::Isometry3d T_base_lidar_end = Eigen::Isometry3d::Identity();
+  double translation_apart_m = 0.0;    // |t_end - t_answer|
+  double rotation_apart_rad = 0.0;     // angle of R_end * R_answer^T
+  double cost_end = 0.0;               // joint cost at the end, visibility at the answer
+  int evaluations = 0;
+};
+
+struct LidarBasinCheck {
+  std::string lidar;
+  bool checked = false;  // false: `why` says why (no used scene at the answer, time budget)
+  std::string why;
+  bool agree = false;    // every restart ended within the agreement bounds
+  double cost_answer = 0.0;  // joint cost at the answer (sharp images, visibility at the answer)
+  double max_translation_apart_m = 0.0;
+  double max_rotation_apart_rad = 0.0;
+  std::vector<BasinRestart> restarts;  // x-, x+, y-, y+, z-, z+
+  int evaluations = 0;
+  double seconds = 0.0;
+};
+
+// For every lidar of `result` (in its order): the restarts above, with the
+// pair costs rebuilt from `input` with `options` (as the calibration built
+// them). Lidars whose answer has no usable scene are reported unchecked.
+std::vector<LidarBasinCheck> CheckBasins(const CalibrationInput& input, const CalibrationOptions& options,
+                                         const CalibrationResult& result, const BasinCheckOptions& check_options,
+                                         const ProgressCallback& progress = {});
+
+}  // namespace scenecal
