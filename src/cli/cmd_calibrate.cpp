@@ -14,7 +14,6 @@
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
-#include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 
 #include "cli/calibrate_alt.hpp"
@@ -110,15 +109,9 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
                   args.scheme);
     return kExitInvalidInput;
   }
-  std::optional<tbb::global_control> thread_limit;
-  if (args.threads > 0) {
-    thread_limit.emplace(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(args.threads));
-  }
-
-  spdlog::info("opening {}", args.dataset);
-  const io::Dataset dataset = io::OpenDataset(args.dataset);
-  const std::string single_frame_defaults = ApplySingleFrameDefaults(dataset, args.cost.BinsGiven(), &options);
-  if (!single_frame_defaults.empty()) spdlog::info("single-frame 3D-lidar data: {}", single_frame_defaults);
+  const auto thread_limit = LimitThreads(args.threads);
+  std::string single_frame_defaults;
+  const io::Dataset dataset = OpenDatasetWithDefaults(args.dataset, args.cost, &options, &single_frame_defaults);
 
   CalibrationInput input;
   input.rig = dataset.rig;

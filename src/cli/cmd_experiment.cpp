@@ -20,10 +20,10 @@
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
-#include <tbb/global_control.h>
 
 #include "cli/calibrate_alt.hpp"
 #include "cli/commands.hpp"
+#include "cli/cost_arguments.hpp"
 #include "cli/load_input.hpp"
 #include "core/calibrate.hpp"
 #include "core/calibrate_alternating.hpp"
@@ -252,10 +252,7 @@ int RunExperiment(const ExperimentArguments& args) {
     spdlog::error("invalid alt options: {}", why);
     return kExitInvalidInput;
   }
-  std::optional<tbb::global_control> thread_limit;
-  if (args.threads > 0) {
-    thread_limit.emplace(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(args.threads));
-  }
+  const auto thread_limit = LimitThreads(args.threads);
 
   // The dataset: given, or simulated into OUTPUT/dataset.
   const std::filesystem::path output(args.output);

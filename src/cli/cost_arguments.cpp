@@ -2,6 +2,8 @@
 
 #include "cli/load_input.hpp"
 
+#include <spdlog/spdlog.h>
+
 namespace scenecal::cli {
 
 void AddCostOptions(CLI::App* command, CostArguments* args) {
@@ -103,6 +105,21 @@ void ApplyCostArguments(const CostArguments& args, CalibrationOptions* options) 
   options->scenes.max_scans_per_scene = args.max_scans_per_scene;
   options->swathe_trim_margin_m = args.swathe_trim_margin_m;
   options->scenes.min_speed_mps = args.min_speed_mps;
+}
+
+std::unique_ptr<tbb::global_control> LimitThreads(int threads) {
+  if (threads <= 0) return nullptr;
+  return std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
+                                               static_cast<std::size_t>(threads));
+}
+
+io::Dataset OpenDatasetWithDefaults(const std::string& path, const CostArguments& args, CalibrationOptions* options,
+                                    std::string* single_frame_defaults) {
+  spdlog::info("opening {}", path);
+  io::Dataset dataset = io::OpenDataset(path);
+  *single_frame_defaults = ApplySingleFrameDefaults(dataset, args.BinsGiven(), options);
+  if (!single_frame_defaults->empty()) spdlog::info("single-frame 3D-lidar data: {}", *single_frame_defaults);
+  return dataset;
 }
 
 }  // namespace scenecal::cli

@@ -3,11 +3,14 @@
 // build exactly the same cost from the same command-line words.
 #pragma once
 
+#include <memory>
 #include <string>
 
 #include <CLI/CLI.hpp>
+#include <tbb/global_control.h>
 
 #include "core/calibrate.hpp"
+#include "io/dataset.hpp"
 
 namespace scenecal::cli {
 
@@ -43,5 +46,15 @@ void AddCostOptions(CLI::App* command, CostArguments* args);
 // Copies the parsed cost options into `options` (metric, histogram, swathe,
 // occlusion, normalisation, scene selection, trimming).
 void ApplyCostArguments(const CostArguments& args, CalibrationOptions* options);
+
+// Caps TBB's worker threads at `threads` while the returned object lives;
+// nothing (no cap) for 0 = all hardware threads.
+std::unique_ptr<tbb::global_control> LimitThreads(int threads);
+
+// Opens the dataset at `path` (logged) and applies the single-frame defaults
+// for the options the user did not set (ApplySingleFrameDefaults; logged and
+// returned in *single_frame_defaults, "" when none). Throws io::InputError.
+io::Dataset OpenDatasetWithDefaults(const std::string& path, const CostArguments& args, CalibrationOptions* options,
+                                    std::string* single_frame_defaults);
 
 }  // namespace scenecal::cli
