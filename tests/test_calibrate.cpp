@@ -236,6 +236,20 @@ TEST_F(CalibrateOnSimulation, CliWritesResultAndPrintsErrors) {
   EXPECT_NE(text.find("basin check"), std::string::npos);
 }
 
+TEST_F(CalibrateOnSimulation, CliSkipsTheBasinCheckWhenTheTimeBudgetIsSpent) {
+  const fs::path output = root_ / "budget.yaml";
+  std::string text;
+  ASSERT_EQ(RunCli("calibrate " + DatasetPath().string() + " --output " + output.string() +
+                       " --scenes 4 --stages 1 --max-iterations 10 --no-uncertainty --time-budget 0.001",
+                   &text),
+            0)
+      << text;
+  const YAML::Node written = YAML::LoadFile(output.string());
+  EXPECT_FALSE(written["basin_check"].IsDefined());
+  EXPECT_EQ(written["settings"]["basin_check"].as<std::string>(), "skipped: time budget spent");
+  EXPECT_NE(text.find("no basin check"), std::string::npos) << text;
+}
+
 TEST_F(CalibrateOnSimulation, CliExitCodes) {
   const fs::path output = root_ / "never.yaml";
   // Bad arguments: exit 2.
