@@ -257,6 +257,13 @@ TEST_F(CalibrateOnSimulation, CliExitCodes) {
             2);
   EXPECT_EQ(RunCli("calibrate " + DatasetPath().string() + " --output " + output.string() + " --stages 1:x", nullptr),
             2);
+  // The simulator writes grey images: no excess green to read (exit 2, the message says why).
+  std::string exg_text;
+  EXPECT_EQ(RunCli("calibrate " + DatasetPath().string() + " --output " + output.string() +
+                       " --scenes 4 --image-channel exg",
+                   &exg_text),
+            2);
+  EXPECT_NE(exg_text.find("a colour image for the excess-green channel"), std::string::npos) << exg_text;
   // Constant images: a copy of the dataset with every image flat grey; exit 1, no file.
   const fs::path flat = root_ / "flat";
   fs::copy(DatasetPath(), flat, fs::copy_options::recursive);

@@ -199,6 +199,53 @@ TEST(DatasetIo, ImagesRoundTripGreyColour8And16Bit) {
   EXPECT_EQ(io::ImageFileSize(temp.path() / "11.png"), std::make_pair(40, 30));
 }
 
+TEST(DatasetIo, ExcessGreenChannelOfColourImagesAndGreyRefused) {
+  const TempDir temp;
+  CameraModel camera;
+  camera.width = 40;
+  camera.height = 30;
+  camera.fx = camera.fy = 50;
+  io::ImageChannel channel = io::ImageChannel::kGrey;
+  ASSERT_TRUE(io::ParseImageChannel("exg", &channel));
+  EXPECT_EQ(channel, io::ImageChannel::kExcessGreen);
+  EXPECT_STREQ(io::ImageChannelName(channel), "exg");
+  EXPECT_FALSE(io::ParseImageChannel("green", &channel));
+  // (2G - R - B + 2) / 4 of the channels scaled to [0, 1], for 8- and 16-bit BGR and BGRA.
+  for (const int type : {CV_8UC3, CV_8UC4, CV_16UC3}) {
+    const cv::Mat colour = TestPattern(40, 30, type);
+    const fs::path path = temp.path() / "20.png";
+    ASSERT_TRUE(cv::imwrite(path.string(), colour));
+    const double scale = colour.depth() == CV_16U ? 1.0 / 65535.0 : 1.0 / 255.0;
+    const GreyImage image = io::ReadImage({20, path}, camera, io::ImageChannel::kExcessGreen);
+    ASSERT_EQ(image.intensity.type(), CV_32F);
+    for (const auto& [row, col] : {std::pair{5, 6}, std::pair{17, 31}}) {
+      cv::Mat pixel = colour(cv::Rect(col, row, 1, 1));
+      pixel.convertTo(pixel, CV_64F, scale);
+      const double* bgr = pixel.ptr<double>(0);
+      const double expected = (2.0 * bgr[1] - bgr[2] - bgr[0] + 2.0) / 4.0;
+      EXPECT_NEAR(image.intensity.at<float>(row, col), expected, 1e-6) << "type " << type;
+    }
+  }
+  // A pure green pixel is the brightest (1), magenta the darkest (0).
+  cv::Mat two(30, 40, CV_8UC3, cv::Scalar(0, 255, 0));
+  two(cv::Rect(0, 0, 20, 30)).setTo(cv::Scalar(255, 0, 255));
+  ASSERT_TRUE(cv::imwrite((temp.path() / "21.png").string(), two));
+  const GreyImage extremes = io::ReadImage({21, temp.path() / "21.png"}, camera, io::ImageChannel::kExcessGreen);
+  EXPECT_FLOAT_EQ(extremes.intensity.at<float>(10, 30), 1.0f);
+  EXPECT_FLOAT_EQ(extremes.intensity.at<float>(10, 5), 0.0f);
+  // A grey image has no excess green: refused, naming the file and the field.
+  io::WriteImage(temp.path() / "22.png", TestPattern(40, 30, CV_8UC1));
+  try {
+    io::ReadImage({22, temp.path() / "22.png"}, camera, io::ImageChannel::kExcessGreen);
+    ADD_FAILURE() << "a grey image was accepted for the excess-green channel";
+  } catch (const io::InputError& e) {
+    const std::string message = e.what();
+    EXPECT_NE(message.find("22.png"), std::string::npos) << message;
+    EXPECT_NE(message.find("image channels"), std::string::npos) << message;
+    EXPECT_NE(message.find("exg"), std::string::npos) << message;
+  }
+}
+
 TEST(DatasetIo, ScansRoundTripAndCountNoReturns) {
   const TempDir temp;
   const float nan = std::numeric_limits<float>::quiet_NaN();

@@ -137,7 +137,7 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
                    args.perturb_rotation_deg, args.seed);
     }
   }
-  const LoadedScenes loaded = SelectAndLoadScenes(dataset, options.scenes, &input);
+  const LoadedScenes loaded = SelectAndLoadScenes(dataset, options.scenes, &input, args.cost.ImageChannel());
   const double load_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   spdlog::info("loaded {} lidar points in {:.2f} s", loaded.lidar_points, load_s);
 
@@ -184,6 +184,7 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
   }
   CalibrationResult& result = outcome.result;
   result.timings_s["load"] = load_s;
+  result.settings["image_channel"] = args.cost.image_channel;
   if (!single_frame_defaults.empty()) result.settings["single_frame_defaults"] = single_frame_defaults;
   if (args.perturb_translation_m > 0.0 || args.perturb_rotation_deg > 0.0 || args.perturb_from_truth) {
     result.settings["perturb_initial"] =

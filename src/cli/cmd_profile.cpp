@@ -200,7 +200,7 @@ int RunProfile(const ProfileArguments& args) {
     spdlog::error("no lidar to profile");
     return kExitInvalidInput;
   }
-  const LoadedScenes loaded = SelectAndLoadScenes(dataset, options.scenes, &input);
+  const LoadedScenes loaded = SelectAndLoadScenes(dataset, options.scenes, &input, args.cost.ImageChannel());
   spdlog::info("loaded {} lidar points in {:.2f} s", loaded.lidar_points,
                std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
 

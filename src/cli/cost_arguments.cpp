@@ -41,9 +41,18 @@ void AddCostOptions(CLI::App* command, CostArguments* args) {
                       "(histogram equalisation)")
       ->check(CLI::IsMember({"none", "minmax", "rank"}))
       ->capture_default_str();
-  command->add_option("--normalise-intensity", args->normalise_intensity,
-                      "Mapping of image intensity to [0, 1] per image: none, minmax, rank")
-      ->check(CLI::IsMember({"none", "minmax", "rank"}))
+  args->normalise_intensity_option =
+      command
+          ->add_option("--normalise-intensity", args->normalise_intensity,
+                       "Mapping of image intensity to [0, 1] per image: none, minmax, rank. Default: none, but rank "
+                       "with --image-channel exg")
+          ->check(CLI::IsMember({"none", "minmax", "rank"}))
+          ->capture_default_str();
+  command->add_option("--image-channel", args->image_channel,
+                      "What the images contribute: grey (their grey level) or exg (excess green 2G-R-B of colour "
+                      "images: vegetation, bright in the lidar's near infrared but dark in grey, becomes bright; "
+                      "for real street scenes with trees and hedges; colour images only)")
+      ->check(CLI::IsMember({"grey", "exg"}))
       ->capture_default_str();
   command->add_option("--min-points", args->min_points,
                       "Projected points a scene needs to count (scenes with fewer are ignored)")
@@ -85,6 +94,12 @@ void AddCostOptions(CLI::App* command, CostArguments* args) {
       ->capture_default_str();
 }
 
+io::ImageChannel CostArguments::ImageChannel() const {
+  io::ImageChannel channel = io::ImageChannel::kGrey;
+  io::ParseImageChannel(image_channel, &channel);  // validated by CLI11
+  return channel;
+}
+
 void ApplyCostArguments(const CostArguments& args, CalibrationOptions* options) {
   // Values already checked by CLI11 validators; parse into the enums.
   options->cost.metric = *ParseMetricKind(args.metric);
@@ -99,6 +114,10 @@ void ApplyCostArguments(const CostArguments& args, CalibrationOptions* options) 
   options->cost.swathe.refresh_border_px = args.refresh_border_px;
   options->normalisation.reflectance = *ParseNormalisation(args.normalise_reflectance);
   options->normalisation.intensity = *ParseNormalisation(args.normalise_intensity);
+  const bool intensity_given = args.normalise_intensity_option != nullptr && args.normalise_intensity_option->count() > 0;
+  if (args.ImageChannel() == io::ImageChannel::kExcessGreen && !intensity_given) {
+    options->normalisation.intensity = Normalisation::kRank;
+  }
   options->scenes.scenes_per_camera = args.scenes;
   options->scenes.swathe_length_m = args.swathe_length_m;
   ParseSwatheDirection(args.direction, &options->scenes.direction);

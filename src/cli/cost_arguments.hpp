@@ -23,6 +23,7 @@ struct CostArguments {
   std::string binning = "hard";
   std::string normalise_reflectance = "rank";
   std::string normalise_intensity = "none";
+  std::string image_channel = "grey";  // io::ImageChannel: grey | exg
   int min_points = 300;
   int max_scans_per_scene = 0;
   double swathe_trim_margin_m = 1.0;
@@ -35,16 +36,20 @@ struct CostArguments {
   // Set by AddCostOptions; after parsing, count() > 0 when given on the command line.
   CLI::Option* bins_option = nullptr;
   CLI::Option* binning_option = nullptr;
+  CLI::Option* normalise_intensity_option = nullptr;
 
   bool BinsGiven() const { return bins_option != nullptr && bins_option->count() > 0; }
   bool BinningGiven() const { return binning_option != nullptr && binning_option->count() > 0; }
+  io::ImageChannel ImageChannel() const;
 };
 
 // Registers the cost options on `command` (values validated by CLI11).
 void AddCostOptions(CLI::App* command, CostArguments* args);
 
 // Copies the parsed cost options into `options` (metric, histogram, swathe,
-// occlusion, normalisation, scene selection, trimming).
+// occlusion, normalisation, scene selection, trimming). With the excess-green
+// channel the image intensity is rank-normalised unless --normalise-intensity
+// was given (its values crowd a narrow band of [0, 1]).
 void ApplyCostArguments(const CostArguments& args, CalibrationOptions* options);
 
 // Caps TBB's worker threads at `threads` while the returned object lives;

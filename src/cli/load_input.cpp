@@ -16,7 +16,7 @@
 namespace scenecal::cli {
 
 LoadedScenes SelectAndLoadScenes(const io::Dataset& dataset, const SceneOptions& scene_options,
-                                 CalibrationInput* input) {
+                                 CalibrationInput* input, io::ImageChannel channel) {
   std::map<std::string, std::vector<TimeUs>> image_times, scan_times;
   for (const auto& [camera, files] : dataset.images) {
     for (const io::SensorFile& f : files) image_times[camera].push_back(f.t_us);
@@ -48,7 +48,7 @@ LoadedScenes SelectAndLoadScenes(const io::Dataset& dataset, const SceneOptions&
   std::vector<GreyImage> images(image_files.size());
   std::vector<LidarScan> scans(scan_files.size());
   tbb::parallel_for(std::size_t{0}, image_files.size(), [&](std::size_t i) {
-    images[i] = io::ReadImage(*image_files[i].second, dataset.rig.FindCamera(image_files[i].first)->model);
+    images[i] = io::ReadImage(*image_files[i].second, dataset.rig.FindCamera(image_files[i].first)->model, channel);
   });
   tbb::parallel_for(std::size_t{0}, scan_files.size(),
                     [&](std::size_t i) { scans[i] = io::ReadScan(*scan_files[i].second); });

@@ -26,8 +26,9 @@ struct LoadedScenes {
 // file times with `scene_options`), input->images and input->scans.
 // input->rig is left as the caller set it. Logs the selection report and the
 // counts with spdlog. Throws io::InputError for unreadable files.
+// Images are read as `channel` (io::ReadImage).
 LoadedScenes SelectAndLoadScenes(const io::Dataset& dataset, const SceneOptions& scene_options,
-                                 CalibrationInput* input);
+                                 CalibrationInput* input, io::ImageChannel channel = io::ImageChannel::kGrey);
 
 // A single-frame dataset of 3D lidars: a one-row (static) trajectory, so every
 // scene is one image and one sweep taken at the same time (e.g. `import

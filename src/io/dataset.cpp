@@ -577,7 +577,18 @@ std::optional<std::pair<int, int>> ImageFileSize(const fs::path& path) {
   return ImageSizeFromHeader(head);
 }
 
-GreyImage ReadImage(const SensorFile& file, const CameraModel& camera) {
+bool ParseImageChannel(const std::string& name, ImageChannel* channel) {
+  if (name == "grey") *channel = ImageChannel::kGrey;
+  else if (name == "exg") *channel = ImageChannel::kExcessGreen;
+  else return false;
+  return true;
+}
+
+const char* ImageChannelName(ImageChannel channel) {
+  return channel == ImageChannel::kExcessGreen ? "exg" : "grey";
+}
+
+GreyImage ReadImage(const SensorFile& file, const CameraModel& camera, ImageChannel channel) {
   const std::string name = file.path.string();
   const std::string bytes = ReadBinaryFile(file.path, kMaxDataFileBytes);
   const std::string expected_size = fmt::format("{} x {} pixels as in rig.yaml", camera.width, camera.height);
@@ -617,16 +628,30 @@ GreyImage ReadImage(const SensorFile& file, const CameraModel& camera) {
   } else {
     Fail(name, "image depth", fmt::format("OpenCV depth {}", decoded.depth()), "8 or 16 bits per channel");
   }
+  if (decoded.channels() != 1 && decoded.channels() != 3 && decoded.channels() != 4) {
+    Fail(name, "image channels", fmt::format("{} channels", decoded.channels()), "grey, RGB or RGBA");
+  }
+  GreyImage image;
+  image.t_us = file.t_us;
+  if (channel == ImageChannel::kExcessGreen) {
+    if (decoded.channels() == 1) {
+      Fail(name, "image channels", "1 channel (grey)", "a colour image for the excess-green channel (--image-channel exg)");
+    }
+    std::vector<cv::Mat> bgr;
+    cv::split(decoded, bgr);
+    cv::Mat b, g, r;
+    bgr[0].convertTo(b, CV_32F, scale);
+    bgr[1].convertTo(g, CV_32F, scale);
+    bgr[2].convertTo(r, CV_32F, scale);
+    image.intensity = (2.0f * g - r - b + 2.0f) * 0.25f;  // [-2, 2] -> [0, 1]
+    return image;
+  }
   cv::Mat grey;
   switch (decoded.channels()) {
     case 1: grey = decoded; break;
     case 3: cv::cvtColor(decoded, grey, cv::COLOR_BGR2GRAY); break;
-    case 4: cv::cvtColor(decoded, grey, cv::COLOR_BGRA2GRAY); break;
-    default:
-      Fail(name, "image channels", fmt::format("{} channels", decoded.channels()), "grey, RGB or RGBA");
+    default: cv::cvtColor(decoded, grey, cv::COLOR_BGRA2GRAY); break;
   }
-  GreyImage image;
-  image.t_us = file.t_us;
   grey.convertTo(image.intensity, CV_32F, scale);
   return image;
 }

@@ -48,9 +48,18 @@ void WriteTrajectory(const std::filesystem::path& path, const Trajectory& trajec
 GroundTruth ReadGroundTruth(const std::filesystem::path& path);
 void WriteGroundTruth(const std::filesystem::path& path, const GroundTruth& truth);
 
-// Decodes an image, checks its size against the camera, converts colour to
-// grey and scales to [0, 1] (8- and 16-bit).
-GreyImage ReadImage(const SensorFile& file, const CameraModel& camera);
+// What ReadImage makes of a (colour) image: its grey level, or the excess
+// green 2G - R - B mapped from [-2, 2] to [0, 1]. Vegetation reflects the
+// lidar's near infrared strongly but is dark in grey; excess green shows it
+// bright (measured on the OpenCalib frames, BENCHMARK.md).
+enum class ImageChannel { kGrey, kExcessGreen };
+bool ParseImageChannel(const std::string& name, ImageChannel* channel);  // "grey" | "exg"
+const char* ImageChannelName(ImageChannel channel);
+
+// Decodes an image, checks its size against the camera, converts it to the
+// channel (colour to grey, or excess green: a grey image is then refused)
+// and scales to [0, 1] (8- and 16-bit).
+GreyImage ReadImage(const SensorFile& file, const CameraModel& camera, ImageChannel channel = ImageChannel::kGrey);
 // Writes an 8-bit or 16-bit image (grey, or BGR/BGRA) as PNG, or 8-bit as JPEG
 // (by extension). Scans and images are plain writes (no fsync: simulations write thousands).
 void WriteImage(const std::filesystem::path& path, const cv::Mat& grey);
