@@ -155,12 +155,18 @@ TEST(DatasetIo, GroundTruthRoundTrip) {
   EXPECT_LT(MatrixDistance(read.T_base_camera.at("right"), truth.T_base_camera.at("right")), kTransformTolerance);
 }
 
-TEST(DatasetIo, ImagesRoundTripGreyColour8And16Bit) {
-  const TempDir temp;
+// The 40 x 30 camera the image tests read their images with.
+CameraModel SmallCamera() {
   CameraModel camera;
   camera.width = 40;
   camera.height = 30;
   camera.fx = camera.fy = 50;
+  return camera;
+}
+
+TEST(DatasetIo, ImagesRoundTripGreyColour8And16Bit) {
+  const TempDir temp;
+  const CameraModel camera = SmallCamera();
   // 8-bit grey through WriteImage: exact values / 255.
   const cv::Mat grey8 = TestPattern(40, 30, CV_8UC1);
   io::WriteImage(temp.path() / "10.png", grey8);
@@ -201,10 +207,7 @@ TEST(DatasetIo, ImagesRoundTripGreyColour8And16Bit) {
 
 TEST(DatasetIo, ExcessGreenChannelOfColourImagesAndGreyRefused) {
   const TempDir temp;
-  CameraModel camera;
-  camera.width = 40;
-  camera.height = 30;
-  camera.fx = camera.fy = 50;
+  const CameraModel camera = SmallCamera();
   io::ImageChannel channel = io::ImageChannel::kGrey;
   ASSERT_TRUE(io::ParseImageChannel("exg", &channel));
   EXPECT_EQ(channel, io::ImageChannel::kExcessGreen);
