@@ -181,7 +181,7 @@ int RunProfile(const ProfileArguments& args) {
     const auto centre = FindExtrinsic(args.at, dataset, at_result, lidar);
     const auto target = args.toward.empty() ? centre : FindExtrinsic(args.toward, dataset, toward_result, lidar);
     for (const auto& [spec, found] : {std::pair{args.at, centre}, std::pair{args.toward, target}}) {
-      if (found) continue;
+      if (found || spec.empty()) continue;
       const std::string message =
           fmt::format("lidar {}: {} has no T_base_lidar for it", lidar.name,
                       spec == "truth" ? args.dataset + "/ground_truth.yaml" : spec);
