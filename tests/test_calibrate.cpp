@@ -257,6 +257,13 @@ TEST_F(CalibrateOnSimulation, CliExitCodes) {
             2);
   EXPECT_EQ(RunCli("calibrate " + DatasetPath().string() + " --output " + output.string() + " --stages 1:x", nullptr),
             2);
+  // A lidar range window that is empty: exit 2, naming the rule.
+  std::string range_text;
+  EXPECT_EQ(RunCli("calibrate " + DatasetPath().string() + " --output " + output.string() +
+                       " --min-range 50 --max-range 40",
+                   &range_text),
+            2);
+  EXPECT_NE(range_text.find("min_range_m < max_range_m"), std::string::npos) << range_text;
   // The simulator writes grey images: no excess green to read (exit 2, the message says why).
   std::string exg_text;
   EXPECT_EQ(RunCli("calibrate " + DatasetPath().string() + " --output " + output.string() +
@@ -484,6 +491,9 @@ TEST_F(CalibrateOnSimulation, AlternatingNidRecoversTheTruthAndItsLevelsAgree) {
   }
   // Calibrate dispatches --scheme alt to the same code.
   EXPECT_EQ(outcome.result.settings.at("scheme"), "alt");
+  // The swathe settings are recorded for alt as for once and joint.
+  EXPECT_EQ(outcome.result.settings.at("occlusion"), "zbuffer (cell width/80 px, margin 0.2 x depth + 0.3 m)");
+  EXPECT_EQ(outcome.result.settings.at("lidar_range_m"), "1 .. 100");
 }
 
 }  // namespace

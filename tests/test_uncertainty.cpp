@@ -155,13 +155,15 @@ TEST_F(UncertaintyOnSimulation, CliWritesTheEstimate) {
                            " --output " + output.string() +
                            " --scheme joint --scenes 12 --stages 1 --max-iterations 30 --no-uncertainty"
                            " --occlusion-cell 12 --occlusion-margin 0.1 --occlusion-margin-abs 0.25"
-                           " --refresh-border 16 > /dev/null 2>&1";
+                           " --refresh-border 16 --min-range 2 --max-range 40 > /dev/null 2>&1";
   ASSERT_EQ(std::system(skip.c_str()), 0);
   const YAML::Node skipped = YAML::LoadFile(output.string());
   EXPECT_FALSE(skipped["uncertainty"].IsDefined());
   EXPECT_EQ(skipped["settings"]["occlusion"].as<std::string>(), "zbuffer (cell 12 px, margin 0.1 x depth + 0.25 m)");
   EXPECT_EQ(skipped["settings"]["refresh_border_px"].as<double>(), 16.0);
   EXPECT_EQ(result["settings"]["refresh_border_px"].as<double>(), 0.0);
+  EXPECT_EQ(skipped["settings"]["lidar_range_m"].as<std::string>(), "2 .. 40");
+  EXPECT_EQ(result["settings"]["lidar_range_m"].as<std::string>(), "1 .. 100");
 }
 
 }  // namespace

@@ -92,6 +92,14 @@ void AddCostOptions(CLI::App* command, CostArguments* args) {
                       "came from the image border")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
+  command->add_option("--min-range", args->min_range_m,
+                      "Lidar points nearer than this many metres to the lidar are dropped (the vehicle's body, "
+                      "spray); must be below --max-range")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  command->add_option("--max-range", args->max_range_m, "Lidar points farther than this many metres are dropped")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
 }
 
 io::ImageChannel CostArguments::ImageChannel() const {
@@ -112,6 +120,8 @@ void ApplyCostArguments(const CostArguments& args, CalibrationOptions* options) 
   options->cost.swathe.occlusion_relative_margin = args.occlusion_relative_margin;
   options->cost.swathe.occlusion_absolute_margin_m = args.occlusion_absolute_margin_m;
   options->cost.swathe.refresh_border_px = args.refresh_border_px;
+  options->cost.swathe.min_range_m = args.min_range_m;
+  options->cost.swathe.max_range_m = args.max_range_m;
   options->normalisation.reflectance = *ParseNormalisation(args.normalise_reflectance);
   options->normalisation.intensity = *ParseNormalisation(args.normalise_intensity);
   const bool intensity_given = args.normalise_intensity_option != nullptr && args.normalise_intensity_option->count() > 0;

@@ -33,6 +33,8 @@ struct CostArguments {
   double occlusion_relative_margin = 0.2;  // hidden if depth > nearest * (1 + relative) + absolute
   double occlusion_absolute_margin_m = 0.3;
   double refresh_border_px = 0.0;
+  double min_range_m = 1.0;    // lidar points nearer than this (lidar frame) are dropped
+  double max_range_m = 100.0;  // and farther than this
   // Set by AddCostOptions; after parsing, count() > 0 when given on the command line.
   CLI::Option* bins_option = nullptr;
   CLI::Option* binning_option = nullptr;

@@ -124,6 +124,17 @@ void RecordCommonSettings(const CalibrationOptions& options, CalibrationResult* 
   settings["direction"] = SwatheDirectionName(options.scenes.direction);
   settings["swathe_trim_margin_m"] = FormatNumber(options.swathe_trim_margin_m);
   settings["min_points_per_scene"] = std::to_string(options.cost.min_points_per_scene);
+  settings["occlusion"] =
+      options.cost.swathe.occlusion
+          ? fmt::format("zbuffer (cell {} px, margin {} x depth + {} m)",
+                        options.cost.swathe.occlusion_cell_px > 0 ? std::to_string(options.cost.swathe.occlusion_cell_px)
+                                                                  : std::string("width/80"),
+                        FormatNumber(options.cost.swathe.occlusion_relative_margin),
+                        FormatNumber(options.cost.swathe.occlusion_absolute_margin_m))
+          : "off";
+  settings["refresh_border_px"] = FormatNumber(options.cost.swathe.refresh_border_px);
+  settings["lidar_range_m"] =
+      FormatNumber(options.cost.swathe.min_range_m) + " .. " + FormatNumber(options.cost.swathe.max_range_m);
   settings["threads"] = std::to_string(options.threads);
   settings["seed"] = std::to_string(options.seed);
 }
@@ -368,15 +379,6 @@ CalibrationOutcome Calibrate(const CalibrationInput& input, const CalibrationOpt
   CalibrationResult& result = outcome.result;
   RecordCommonSettings(options, &result);
   result.settings["rotation_pivot"] = options.pivot_at_observed_centroid ? "observed centroid" : "lidar origin";
-  result.settings["occlusion"] =
-      options.cost.swathe.occlusion
-          ? fmt::format("zbuffer (cell {} px, margin {} x depth + {} m)",
-                        options.cost.swathe.occlusion_cell_px > 0 ? std::to_string(options.cost.swathe.occlusion_cell_px)
-                                                                  : std::string("width/80"),
-                        FormatNumber(options.cost.swathe.occlusion_relative_margin),
-                        FormatNumber(options.cost.swathe.occlusion_absolute_margin_m))
-          : "off";
-  result.settings["refresh_border_px"] = FormatNumber(options.cost.swathe.refresh_border_px);
   const bool lbfgs = options.lower_solver == LowerSolver::kLbfgs;
   result.settings["max_iterations_per_run"] =
       std::to_string(lbfgs ? options.gradient.max_iterations : options.nelder_mead.max_iterations);
