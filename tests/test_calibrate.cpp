@@ -378,6 +378,52 @@ TEST_F(CalibrateOnSimulation, ProfileCliSamplesTheCostThroughTheTruth) {
   EXPECT_FALSE(fs::exists(never));
 }
 
+TEST_F(CalibrateOnSimulation, RangeSplitScoresNearAndFarPointsAsTwoScenes) {
+  const io::Dataset dataset = io::OpenDataset(DatasetPath());
+  CalibrationOptions options;
+  options.scenes.scenes_per_camera = 6;
+  options.scenes.swathe_length_m = 20.0;  // far returns (walls, cars) reach the image
+  options.cost.swathe.occlusion = false;  // the z-buffer works within a band: compare without it
+  const CalibrationInput input = Load(dataset, options.scenes);
+  const CameraInfo& camera = *input.rig.FindCamera("left");
+  const Eigen::Isometry3d T_camera_lidar =
+      camera.T_base_camera.inverse() * dataset.ground_truth->T_base_lidar.at("lms_rear");
+  PairCost whole = BuildPairCost(input, camera, "lms_rear", options);
+  options.range_split_m = 5.0;
+  std::string why;
+  ASSERT_TRUE(options.IsValid(&why)) << why;
+  PairCost split = BuildPairCost(input, camera, "lms_rear", options);
+  ASSERT_GT(whole.SceneCount(), 0);
+  ASSERT_EQ(split.SceneCount(), 2 * whole.SceneCount());  // a near and a far band per scene
+  whole.RefreshVisibility(T_camera_lidar);
+  split.RefreshVisibility(T_camera_lidar);
+  std::size_t whole_points = 0, near_points = 0, far_points = 0;
+  for (int s = 0; s < whole.SceneCount(); ++s) {
+    whole_points += whole.ProjectedAtRefresh()[static_cast<std::size_t>(s)];
+    near_points += split.ProjectedAtRefresh()[static_cast<std::size_t>(2 * s)];
+    far_points += split.ProjectedAtRefresh()[static_cast<std::size_t>(2 * s + 1)];
+  }
+  // The bands partition the points: none lost, none counted twice; both bands hold some.
+  EXPECT_EQ(near_points + far_points, whole_points);
+  EXPECT_GT(near_points, 0u);
+  EXPECT_GT(far_points, 0u);
+  std::cout << "[ measured ] projected points at the truth: " << near_points << " within 5 m of the lidar, "
+            << far_points << " beyond\n";
+  // The cost is the mean over the used bands.
+  double sum = 0.0;
+  int used = 0;
+  for (const SceneEvaluation& band : split.EvaluateScenes(T_camera_lidar)) {
+    if (band.state != SceneState::kUsed) continue;
+    sum += band.cost;
+    ++used;
+  }
+  ASSERT_GT(used, 0);
+  EXPECT_NEAR(split.Evaluate(T_camera_lidar), sum / used, 1e-12);
+  options.range_split_m = -1.0;
+  EXPECT_FALSE(options.IsValid(&why));
+  EXPECT_NE(why.find("range_split_m"), std::string::npos);
+}
+
 TEST_F(CalibrateOnSimulation, BasinCheckRestartsAboutEachAxisAndComparesTheEnds) {
   const io::Dataset dataset = io::OpenDataset(DatasetPath());
   CalibrationOptions options;

@@ -100,6 +100,12 @@ void AddCostOptions(CLI::App* command, CostArguments* args) {
   command->add_option("--max-range", args->max_range_m, "Lidar points farther than this many metres are dropped")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
+  command->add_option("--range-split", args->range_split_m,
+                      "Score each scene's lidar points nearer and farther than this many metres from the lidar as "
+                      "two scenes (each its own joint histogram), so the few far returns weigh as much as the many "
+                      "near ones; 0 = off")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
 }
 
 io::ImageChannel CostArguments::ImageChannel() const {
@@ -122,6 +128,7 @@ void ApplyCostArguments(const CostArguments& args, CalibrationOptions* options) 
   options->cost.swathe.refresh_border_px = args.refresh_border_px;
   options->cost.swathe.min_range_m = args.min_range_m;
   options->cost.swathe.max_range_m = args.max_range_m;
+  options->range_split_m = args.range_split_m;
   options->normalisation.reflectance = *ParseNormalisation(args.normalise_reflectance);
   options->normalisation.intensity = *ParseNormalisation(args.normalise_intensity);
   const bool intensity_given = args.normalise_intensity_option != nullptr && args.normalise_intensity_option->count() > 0;

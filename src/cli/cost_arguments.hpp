@@ -35,6 +35,7 @@ struct CostArguments {
   double refresh_border_px = 0.0;
   double min_range_m = 1.0;    // lidar points nearer than this (lidar frame) are dropped
   double max_range_m = 100.0;  // and farther than this
+  double range_split_m = 0.0;  // 0 = one histogram per scene
   // Set by AddCostOptions; after parsing, count() > 0 when given on the command line.
   CLI::Option* bins_option = nullptr;
   CLI::Option* binning_option = nullptr;

@@ -79,6 +79,8 @@ bool CalibrationOptions::IsValid(std::string* why) const {
   if (!(restart_min_improvement >= 0.0)) return fail("restart_min_improvement must be >= 0");
   if (threads < 0) return fail("threads must be 0 (all) or positive");
   if (!std::isfinite(swathe_trim_margin_m)) return fail("swathe_trim_margin_m must be a finite number of metres");
+  if (!(range_split_m >= 0.0) || !std::isfinite(range_split_m))
+    return fail("range_split_m must be 0 (off) or a positive number of metres");
   if (!(time_budget_s >= 0.0) || !std::isfinite(time_budget_s)) return fail("time_budget_s must be >= 0 seconds");
   if (!(agreement_warning_translation_m > 0.0) || !(agreement_warning_rotation_deg > 0.0))
     return fail("agreement warning thresholds must be positive");
@@ -133,6 +135,7 @@ void RecordCommonSettings(const CalibrationOptions& options, CalibrationResult* 
                         FormatNumber(options.cost.swathe.occlusion_absolute_margin_m))
           : "off";
   settings["refresh_border_px"] = FormatNumber(options.cost.swathe.refresh_border_px);
+  settings["range_split_m"] = FormatNumber(options.range_split_m);
   settings["lidar_range_m"] =
       FormatNumber(options.cost.swathe.min_range_m) + " .. " + FormatNumber(options.cost.swathe.max_range_m);
   settings["threads"] = std::to_string(options.threads);
@@ -148,8 +151,8 @@ PairCost BuildPairCost(const CalibrationInput& input, const CameraInfo& camera, 
   const auto images_it = input.images.find(camera.name);
   const auto scans_it = input.scans.find(lidar);
   const LidarInfo* lidar_info = input.rig.FindLidar(lidar);  // its T_base_lidar is the initial guess
-  std::vector<SceneSwathe> swathes(scenes.size());
-  std::vector<char> complete(scenes.size(), 0);
+  // Per scene: one swathe, or one per lidar range band (range_split_m).
+  std::vector<std::vector<SceneSwathe>> swathes(scenes.size());
   tbb::parallel_for(std::size_t{0}, scenes.size(), [&](std::size_t s) {
     const Scene& scene = *scenes[s];
     if (images_it == input.images.end() || scans_it == input.scans.end()) return;
@@ -161,12 +164,27 @@ PairCost BuildPairCost(const CalibrationInput& input, const CameraInfo& camera, 
       if (scan == scans_it->second.end()) return;
       scans.push_back(&scan->second);
     }
-    swathes[s] = SceneSwathe::Build(scene, camera, image->second.intensity, scans, options.cost.swathe,
-                                    options.normalisation);
-    complete[s] = 1;
-    if (options.swathe_trim_margin_m < 0.0 || lidar_info == nullptr) return;
+    const auto build = [&](const Scene& kept_scene, const std::vector<const LidarScan*>& kept_scans) {
+      if (options.range_split_m <= 0.0) {
+        swathes[s] = {SceneSwathe::Build(kept_scene, camera, image->second.intensity, kept_scans, options.cost.swathe,
+                                         options.normalisation)};
+        return;
+      }
+      SwatheOptions near = options.cost.swathe, far = options.cost.swathe;
+      near.max_range_m = std::min(near.max_range_m, options.range_split_m);
+      far.min_range_m = std::max(far.min_range_m, options.range_split_m);
+      swathes[s] = {};
+      for (const SwatheOptions* band : {&near, &far}) {
+        if (!(band->max_range_m > band->min_range_m)) continue;  // the band lies outside the range window
+        swathes[s].push_back(SceneSwathe::Build(kept_scene, camera, image->second.intensity, kept_scans, *band,
+                                                options.normalisation));
+      }
+    };
+    if (options.swathe_trim_margin_m < 0.0 || lidar_info == nullptr) return build(scene, scans);
+    SceneSwathe whole =
+        SceneSwathe::Build(scene, camera, image->second.intensity, scans, options.cost.swathe, options.normalisation);
     const std::vector<std::size_t> per_scan =
-        swathes[s].CountProjectedPerScan(camera.T_base_camera.inverse() * lidar_info->T_base_lidar);
+        whole.CountProjectedPerScan(camera.T_base_camera.inverse() * lidar_info->T_base_lidar);
     double first_m = std::numeric_limits<double>::infinity(), last_m = -first_m;
     for (std::size_t j = 0; j < per_scan.size(); ++j) {
       if (per_scan[j] == 0) continue;
@@ -174,7 +192,7 @@ PairCost BuildPairCost(const CalibrationInput& input, const CameraInfo& camera, 
       first_m = std::min(first_m, travel_m);
       last_m = std::max(last_m, travel_m);
     }
-    if (!(first_m <= last_m)) return;  // nothing projects at the initial guess: keep the scene whole
+    if (!(first_m <= last_m)) return build(scene, scans);  // nothing projects at the initial guess: keep it whole
     Scene trimmed = scene;
     trimmed.scans.clear();
     std::vector<const LidarScan*> kept_scans;
@@ -185,13 +203,15 @@ PairCost BuildPairCost(const CalibrationInput& input, const CameraInfo& camera, 
       trimmed.scans.push_back(scene.scans[j]);
       kept_scans.push_back(scans[j]);
     }
-    if (trimmed.scans.size() == scene.scans.size()) return;
-    swathes[s] = SceneSwathe::Build(trimmed, camera, image->second.intensity, kept_scans, options.cost.swathe,
-                                    options.normalisation);
+    if (trimmed.scans.size() == scene.scans.size() && options.range_split_m <= 0.0) {
+      swathes[s] = {std::move(whole)};  // nothing trimmed: no need to build it again
+      return;
+    }
+    build(trimmed, kept_scans);
   });
   std::vector<SceneSwathe> kept;
-  for (std::size_t s = 0; s < swathes.size(); ++s) {
-    if (complete[s]) kept.push_back(std::move(swathes[s]));
+  for (auto& scene_swathes : swathes) {
+    for (SceneSwathe& swathe : scene_swathes) kept.push_back(std::move(swathe));
   }
   return PairCost(camera, lidar, std::move(kept), options.cost);
 }

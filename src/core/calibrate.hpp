@@ -93,6 +93,11 @@ struct CalibrationOptions {
   // within this margin of the first and last scan with points projecting at
   // the initial guess; the margin covers the initial guess's error.
   double swathe_trim_margin_m = 1.0;
+  // Lidar range bands (metres; 0 = off): each scene's points nearer and farther
+  // than this from the lidar are scored as two scenes (each its own joint
+  // histogram), so the few far returns (walls, parked cars) weigh as much as
+  // the many near road returns. Visibility is then tested within a band.
+  double range_split_m = 0.0;
 
   bool IsValid(std::string* why = nullptr) const;
 };

@@ -107,6 +107,7 @@ std::uint64_t AlternatingSetup::Fingerprint(const CalibrationOptions& options,
   digest.Add(swathe.refresh_border_px);
   digest.Add(swathe.min_range_m);
   digest.Add(swathe.max_range_m);
+  digest.Add(options.range_split_m);
   digest.Add(static_cast<std::uint64_t>(options.nelder_mead.max_iterations));
   digest.Add(static_cast<std::uint64_t>(alternating.lower_solver));
   digest.Add(static_cast<std::uint64_t>(alternating.lower_gradient.max_iterations));
