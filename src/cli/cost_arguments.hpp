@@ -1,6 +1,8 @@
-// The options that define a pair's cost (scenes, swathes, histogram, metric,
-// normalisation, occlusion), shared by `calibrate` and `profile` so both
-// build exactly the same cost from the same command-line words.
+// The options that define a pair's cost (scenes, swathes, lidar range,
+// histogram, metric, normalisation, image channel, occlusion), shared by
+// `calibrate` and `profile` so both build exactly the same cost from the same
+// command-line words; and two steps every data command starts with (the
+// thread cap, opening the dataset with the single-frame defaults).
 #pragma once
 
 #include <memory>
