@@ -163,7 +163,9 @@ YAML::Node ReportBasinCheck(const CalibrationInput& input, const CalibrationOpti
         "lidar {}: basin check: restarts from the answer turned +-{} deg about each base axis ended up to {:.2f} cm "
         "and {:.3f} deg from it{}. The data do not pin the extrinsic down better than that, whatever the local "
         "sigma says; the result along that direction depends on the initial guess. Add scenes with structure off "
-        "the ground, a longer drive (--scenes), or check the odometry (its drift over the swathe biases the tilt)",
+        "the ground or a longer drive (--scenes); for a push-broom lidar behind the cameras try --scheme joint "
+        "--swathe-length 30 --range-split 6 (BENCHMARK.md); check the odometry (its drift over the swathe biases "
+        "the tilt)",
         check.lidar, offset_deg, 100.0 * check.max_translation_apart_m, check.max_rotation_apart_rad * deg, where));
   }
   result->timings_s["basin_check"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
