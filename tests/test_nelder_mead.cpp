@@ -124,6 +124,22 @@ TEST(NelderMead, TransformUpdateMovesThePivotByRho) {
   EXPECT_TRUE(ApplyTransformUpdate(start, delta, TransformUpdate::kLeftTwist).isApprox(ExpSE3(delta) * start, 1e-12));
 }
 
+TEST(NelderMead, TransformUpdateBetweenInvertsTheUpdate) {
+  Vector6d tuple;
+  tuple << 1.0, -2.0, 0.5, 0.3, -0.1, 2.0;
+  const Eigen::Isometry3d start = TransformFromTuple(tuple);
+  Vector6d delta;
+  delta << 0.01, -0.02, 0.03, 0.02, -0.01, 0.015;
+  const Eigen::Vector3d pivot(0.5, -3.0, 1.0);
+  for (const TransformUpdate update : {TransformUpdate::kAboutSourcePoint, TransformUpdate::kLeftTwist}) {
+    for (const Eigen::Vector3d& q : {Eigen::Vector3d::Zero().eval(), pivot}) {
+      const Eigen::Isometry3d moved = ApplyTransformUpdate(start, delta, update, q);
+      EXPECT_LT((TransformUpdateBetween(start, moved, update, q) - delta).norm(), 1e-12);
+      EXPECT_LT(TransformUpdateBetween(start, start, update, q).norm(), 1e-15);
+    }
+  }
+}
+
 TEST(NelderMead, TransformWrapperRecoversATransform) {
   Vector6d truth_tuple;
   truth_tuple << 0.4, -0.3, 1.2, 0.1, -0.2, 0.3;

@@ -11,9 +11,9 @@
 // any optimiser), and how sharply the data constrain each direction.
 #include <algorithm>
 #include <array>
-#include <functional>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <map>
 #include <memory>
@@ -129,14 +129,6 @@ std::optional<Eigen::Isometry3d> FindExtrinsic(const std::string& spec, const io
   return found->T_base_lidar;
 }
 
-// The local update (kAboutSourcePoint, pivot at the lidar's origin, axes of
-// the frame both transforms map into) that takes `from` to `to`.
-Vector6d UpdateBetween(const Eigen::Isometry3d& from, const Eigen::Isometry3d& to) {
-  Vector6d delta;
-  delta << to.translation() - from.translation(), LogSO3(to.linear() * from.linear().transpose());
-  return delta;
-}
-
 struct Profile {
   std::string name;   // "joint LIDAR" or "CAMERA/LIDAR"
   std::string frame;  // frame of the axes
@@ -239,7 +231,7 @@ int RunProfile(const ProfileArguments& args) {
   // origin, then along the update that reaches `target`.
   const auto sample = [&](const std::function<double(const Eigen::Isometry3d&)>& cost, const Eigen::Isometry3d& centre,
                           const Eigen::Isometry3d& target, Profile* profile) {
-    const Vector6d to_target = UpdateBetween(centre, target);
+    const Vector6d to_target = TransformUpdateBetween(centre, target, TransformUpdate::kAboutSourcePoint);
     for (int dof = 0; dof < dofs; ++dof) {
       const std::vector<double> offsets = offsets_of(dof);
       profile->costs[dof].resize(offsets.size());

@@ -75,14 +75,7 @@ class TransformState {
   }
   // Local update (scaled) taking `from` to `to`: the inverse of ApplyTransformUpdate.
   Vector6d ScaledUpdate(const Eigen::Isometry3d& from, const Eigen::Isometry3d& to) const {
-    Vector6d delta;
-    if (options_.transform_update == TransformUpdate::kLeftTwist) {
-      delta = LogSE3(to * from.inverse());
-    } else {
-      delta.head<3>() = to * options_.pivot_source - from * options_.pivot_source;
-      delta.tail<3>() = LogSO3(to.linear() * from.linear().transpose());
-    }
-    return delta.cwiseQuotient(scale_);
+    return TransformUpdateBetween(from, to, options_.transform_update, options_.pivot_source).cwiseQuotient(scale_);
   }
   const Vector6d& Scale() const { return scale_; }
   const Eigen::Isometry3d& Start() const { return T_0_; }

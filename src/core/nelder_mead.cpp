@@ -178,6 +178,15 @@ Eigen::Isometry3d ApplyTransformUpdate(const Eigen::Isometry3d& T_0, const Eigen
   return T;
 }
 
+Eigen::Matrix<double, 6, 1> TransformUpdateBetween(const Eigen::Isometry3d& from, const Eigen::Isometry3d& to,
+                                                   TransformUpdate update, const Eigen::Vector3d& pivot_source) {
+  if (update == TransformUpdate::kLeftTwist) return LogSE3(to * from.inverse());
+  Eigen::Matrix<double, 6, 1> delta;
+  delta.head<3>() = to * pivot_source - from * pivot_source;
+  delta.tail<3>() = LogSO3(to.linear() * from.linear().transpose());
+  return delta;
+}
+
 NelderMeadSummary MinimiseOverTransform(const std::function<double(const Eigen::Isometry3d&)>& cost,
                                         const NelderMeadOptions& options, Eigen::Isometry3d* transform,
                                         const StopRequested& stop_requested) {

@@ -33,6 +33,11 @@ enum class TransformUpdate { kAboutSourcePoint, kLeftTwist };
 Eigen::Isometry3d ApplyTransformUpdate(const Eigen::Isometry3d& T_0, const Eigen::Matrix<double, 6, 1>& delta,
                                        TransformUpdate update,
                                        const Eigen::Vector3d& pivot_source = Eigen::Vector3d::Zero());
+// Its inverse: the local update that takes `from` to `to`
+// (ApplyTransformUpdate(from, TransformUpdateBetween(from, to, ...), ...) == to).
+Eigen::Matrix<double, 6, 1> TransformUpdateBetween(const Eigen::Isometry3d& from, const Eigen::Isometry3d& to,
+                                                   TransformUpdate update,
+                                                   const Eigen::Vector3d& pivot_source = Eigen::Vector3d::Zero());
 
 struct NelderMeadOptions {
   // Initial simplex edges of the transform search: metres for the translation
