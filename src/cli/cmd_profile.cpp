@@ -212,7 +212,9 @@ int RunProfile(const ProfileArguments& args) {
   };
   const int dofs = args.toward.empty() ? 6 : 7;
   // Offsets as written: metres, degrees, or the line's fraction.
-  const auto written = [](int dof, double offset) { return dof >= 3 && dof < kLine ? DegreesFromRadians(offset) : offset; };
+  const auto written = [](int dof, double offset) {
+    return dof >= 3 && dof < kLine ? DegreesFromRadians(offset) : offset;
+  };
   std::vector<Profile> profiles;
   std::string csv = "profile,frame,dof,offset,cost\n";
   const auto append = [&](const Profile& profile) {
@@ -363,8 +365,9 @@ CommandRunner AddProfileCommand(CLI::App& app) {
                       "Rotation offsets span +- this many degrees")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
-  command->add_option("--samples", args->samples, "Samples per degree of freedom (made odd, so the centre is one); the line gets as many per unit of its "
-                      "offset, so it samples the centre (0) and the target (1) too")
+  command->add_option("--samples", args->samples,
+                      "Samples per degree of freedom (made odd, so the centre is one); the line gets as many per unit "
+                      "of its offset, so it samples the centre (0) and the target (1) too")
       ->check(CLI::Range(1, 100001))
       ->capture_default_str();
   command->add_option("--blur", args->blur_fraction,

@@ -64,11 +64,8 @@ std::vector<LidarBasinCheck> CheckBasins(const CalibrationInput& input, const Ca
     }
     NelderMeadOptions nelder_mead = options.nelder_mead;
     if (options.pivot_at_observed_centroid) {
-      nelder_mead.pivot_source = ObservedCentroid(pairs, answer.T_base_lidar).value_or(Eigen::Vector3d::Zero());
+      nelder_mead.pivot_source = ObservedCentroid(pairs, answer.T_base_lidar).value_or(nelder_mead.pivot_source);
     }
-    GradientSolverOptions gradient = options.gradient;
-    gradient.transform_update = nelder_mead.transform_update;
-    gradient.pivot_source = nelder_mead.pivot_source;
 
     check.checked = true;
     check.agree = true;
@@ -80,21 +77,16 @@ std::vector<LidarBasinCheck> CheckBasins(const CalibrationInput& input, const Ca
         Vector6d offset = Vector6d::Zero();
         offset(3 + axis) = sign * check_options.offset_rad;
         Eigen::Isometry3d T = ApplyTransformUpdate(answer.T_base_lidar, offset, TransformUpdate::kAboutSourcePoint);
-        if (options.lower_solver == LowerSolver::kLbfgs) {
-          const auto runs = MinimiseCoarseToFineWithGradient(
-              [&](const Eigen::Isometry3d& candidate, Vector6d* g) {
-                if (g == nullptr) return EvaluateJoint(pairs, candidate);
-                return EvaluateJointWithGradient(pairs, candidate, gradient.transform_update, gradient.pivot_source,
-                                                 g);
-              },
-              prepare_at, gradient, stages, options.restart_min_improvement, &T);
-          for (const auto& run : runs) restart.evaluations += run.evaluations;
-        } else {
-          const auto runs = MinimiseCoarseToFine(
-              [&](const Eigen::Isometry3d& candidate) { return EvaluateJoint(pairs, candidate); }, prepare_at,
-              nelder_mead, stages, options.restart_min_improvement, &T);
-          for (const auto& run : runs) restart.evaluations += run.evaluations;
-        }
+        OptimisationReport report;
+        MinimiseWithLowerSolver(
+            options, stages, nelder_mead,
+            [&](const Eigen::Isometry3d& candidate) { return EvaluateJoint(pairs, candidate); },
+            [&](const Eigen::Isometry3d& candidate, Vector6d* gradient) {
+              return EvaluateJointWithGradient(pairs, candidate, nelder_mead.transform_update,
+                                               nelder_mead.pivot_source, gradient);
+            },
+            prepare_at, &T, &report);
+        restart.evaluations = report.evaluations;
         restart.T_base_lidar_end = T;
         restart.translation_apart_m = TranslationError(T, answer.T_base_lidar);
         restart.rotation_apart_rad = RadiansFromDegrees(RotationErrorDegrees(T, answer.T_base_lidar));

@@ -129,8 +129,9 @@ void RecordCommonSettings(const CalibrationOptions& options, CalibrationResult* 
   settings["occlusion"] =
       options.cost.swathe.occlusion
           ? fmt::format("zbuffer (cell {} px, margin {} x depth + {} m)",
-                        options.cost.swathe.occlusion_cell_px > 0 ? std::to_string(options.cost.swathe.occlusion_cell_px)
-                                                                  : std::string("width/80"),
+                        options.cost.swathe.occlusion_cell_px > 0
+                            ? std::to_string(options.cost.swathe.occlusion_cell_px)
+                            : std::string("width/80"),
                         FormatNumber(options.cost.swathe.occlusion_relative_margin),
                         FormatNumber(options.cost.swathe.occlusion_absolute_margin_m))
           : "off";
@@ -292,6 +293,32 @@ std::optional<Eigen::Vector3d> ObservedCentroid(const std::vector<const PairCost
   }
   if (count == 0) return std::nullopt;
   return sum / static_cast<double>(count);
+}
+
+void MinimiseWithLowerSolver(const CalibrationOptions& options, const std::vector<OptimisationStage>& stages,
+                             const NelderMeadOptions& nelder_mead,
+                             const std::function<double(const Eigen::Isometry3d&)>& cost,
+                             const CostWithGradient& cost_with_gradient,
+                             const std::function<void(const OptimisationStage& stage, const Eigen::Isometry3d&)>&
+                                 prepare,
+                             Eigen::Isometry3d* transform, OptimisationReport* report,
+                             const StopRequested& stop_requested) {
+  report->solver = options.lower_solver;
+  if (options.lower_solver == LowerSolver::kLbfgs) {
+    GradientSolverOptions gradient = options.gradient;
+    gradient.transform_update = nelder_mead.transform_update;
+    gradient.pivot_source = nelder_mead.pivot_source;
+    report->gradient_runs = MinimiseCoarseToFineWithGradient(
+        cost_with_gradient, prepare, gradient, stages, options.restart_min_improvement, transform, stop_requested);
+    for (const auto& run : report->gradient_runs) {
+      report->evaluations += run.evaluations;
+      report->gradient_evaluations += run.gradient_evaluations;
+    }
+  } else {
+    report->stages = MinimiseCoarseToFine(cost, prepare, nelder_mead, stages, options.restart_min_improvement,
+                                          transform, stop_requested);
+    for (const auto& stage : report->stages) report->evaluations += stage.evaluations;
+  }
 }
 
 void PreparePairForStage(PairCost& pair, const OptimisationStage& stage, const Eigen::Isometry3d& T_camera_lidar) {
@@ -468,28 +495,16 @@ CalibrationOutcome Calibrate(const CalibrationInput& input, const CalibrationOpt
       const auto problem_start = Clock::now();
       OptimisationReport report;
       report.problem = name;
-      report.solver = options.lower_solver;
       say(report.problem + ": start (" + LowerSolverName(options.lower_solver) + "), cost " +
           FormatNumber(initial_cost) + ", rotation pivot (lidar frame, m) " + FormatVector(nelder_mead.pivot_source));
+      MinimiseWithLowerSolver(options, options.stages, nelder_mead, cost, cost_with_gradient, prepare, transform,
+                              &report, stop_requested);
       std::string brief;
       double final_value = std::numeric_limits<double>::quiet_NaN();
       if (options.lower_solver == LowerSolver::kLbfgs) {
-        GradientSolverOptions gradient = options.gradient;
-        gradient.transform_update = nelder_mead.transform_update;
-        gradient.pivot_source = nelder_mead.pivot_source;
-        report.gradient_runs = MinimiseCoarseToFineWithGradient(
-            cost_with_gradient, prepare, gradient, options.stages, options.restart_min_improvement, transform,
-            stop_requested);
-        for (const auto& run : report.gradient_runs) {
-          report.evaluations += run.evaluations;
-          report.gradient_evaluations += run.gradient_evaluations;
-        }
         if (!report.gradient_runs.empty()) final_value = report.gradient_runs.back().final_value;
         brief = GradientRunsBrief(report.gradient_runs);
       } else {
-        report.stages = MinimiseCoarseToFine(cost, prepare, nelder_mead, options.stages,
-                                             options.restart_min_improvement, transform, stop_requested);
-        for (const auto& stage : report.stages) report.evaluations += stage.evaluations;
         if (!report.stages.empty()) final_value = report.stages.back().final_value;
         brief = StagesBrief(report.stages);
       }

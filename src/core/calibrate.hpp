@@ -177,6 +177,21 @@ std::vector<GradientSolverSummary> MinimiseCoarseToFineWithGradient(
     const GradientSolverOptions& options, const std::vector<OptimisationStage>& stages,
     double restart_min_improvement, Eigen::Isometry3d* transform, const StopRequested& stop_requested = {});
 
+// The stages `stages` on *transform with options.lower_solver: Nelder-Mead
+// (MinimiseCoarseToFine with `nelder_mead`: its steps and parameterisation)
+// on `cost`, or L-BFGS (MinimiseCoarseToFineWithGradient with
+// options.gradient, in nelder_mead's parameterisation) on
+// `cost_with_gradient`. Fills report->solver, its runs and its evaluation
+// counts (not its problem name or time).
+void MinimiseWithLowerSolver(const CalibrationOptions& options, const std::vector<OptimisationStage>& stages,
+                             const NelderMeadOptions& nelder_mead,
+                             const std::function<double(const Eigen::Isometry3d&)>& cost,
+                             const CostWithGradient& cost_with_gradient,
+                             const std::function<void(const OptimisationStage& stage, const Eigen::Isometry3d&)>&
+                                 prepare,
+                             Eigen::Isometry3d* transform, OptimisationReport* report,
+                             const StopRequested& stop_requested = {});
+
 // What one cost + gradient evaluation costs in plain cost evaluations
 // (PairCost::EvaluateWithGradient against PairCost::Evaluate, B-spline NID),
 // measured with benchmarks/bench_cost.cpp (BM_EvaluateWithGradient against
