@@ -184,7 +184,7 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
   }
   CalibrationResult& result = outcome.result;
   result.timings_s["load"] = load_s;
-  result.settings["image_channel"] = args.cost.image_channel;
+  result.settings["image_channel"] = io::ImageChannelName(args.cost.ImageChannel());
   if (!single_frame_defaults.empty()) result.settings["single_frame_defaults"] = single_frame_defaults;
   if (args.perturb_translation_m > 0.0 || args.perturb_rotation_deg > 0.0 || args.perturb_from_truth) {
     result.settings["perturb_initial"] =
@@ -193,13 +193,15 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
   }
   YAML::Node extra(YAML::NodeType::Map);
   if (!args.no_uncertainty) extra["uncertainty"] = ReportUncertainty(input, options, &result);
-  const double elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  if (!args.no_basin_check && args.time_budget_s > 0.0 && elapsed_s >= args.time_budget_s) {
-    // The check runs the final stage six times per lidar: not within a spent budget.
-    spdlog::warn("no basin check: the time budget ({} s) is spent", args.time_budget_s);
-    result.settings["basin_check"] = "skipped: time budget spent";
-  } else if (!args.no_basin_check) {
-    extra["basin_check"] = ReportBasinCheck(input, options, args.basin_offset_deg, &result);
+  if (!args.no_basin_check) {
+    const double elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    if (args.time_budget_s > 0.0 && elapsed_s >= args.time_budget_s) {
+      // The check runs the final stage six times per lidar: not within a spent budget.
+      spdlog::warn("no basin check: the time budget ({} s) is spent", args.time_budget_s);
+      result.settings["basin_check"] = "skipped: time budget spent";
+    } else {
+      extra["basin_check"] = ReportBasinCheck(input, options, args.basin_offset_deg, &result);
+    }
   }
   result.timings_s["total"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   for (const std::string& warning : result.warnings) spdlog::warn("{}", warning);
