@@ -106,13 +106,18 @@ TEST(NelderMead, NonFiniteStartIsReported) {
   EXPECT_EQ(summary.evaluations, 1);
 }
 
+// A transform, a local update and a pivot for the update tests.
+struct UpdateExample {
+  Eigen::Isometry3d start = TransformFromTuple((Vector6d() << 1.0, -2.0, 0.5, 0.3, -0.1, 2.0).finished());
+  Vector6d delta = (Vector6d() << 0.01, -0.02, 0.03, 0.02, -0.01, 0.015).finished();
+  Eigen::Vector3d pivot{0.5, -3.0, 1.0};
+};
+
 TEST(NelderMead, TransformUpdateMovesThePivotByRho) {
-  Vector6d tuple;
-  tuple << 1.0, -2.0, 0.5, 0.3, -0.1, 2.0;
-  const Eigen::Isometry3d start = TransformFromTuple(tuple);
-  Vector6d delta;
-  delta << 0.01, -0.02, 0.03, 0.02, -0.01, 0.015;
-  const Eigen::Vector3d pivot(0.5, -3.0, 1.0);
+  const UpdateExample example;
+  const Eigen::Isometry3d& start = example.start;
+  const Vector6d& delta = example.delta;
+  const Eigen::Vector3d& pivot = example.pivot;
   const Eigen::Isometry3d moved = ApplyTransformUpdate(start, delta, TransformUpdate::kAboutSourcePoint, pivot);
   // The pivot moves by exactly rho; the rotation is ExpSO3(phi) * R_0.
   EXPECT_LT(((moved * pivot) - (start * pivot) - delta.head<3>()).norm(), 1e-12);
@@ -125,12 +130,10 @@ TEST(NelderMead, TransformUpdateMovesThePivotByRho) {
 }
 
 TEST(NelderMead, TransformUpdateBetweenInvertsTheUpdate) {
-  Vector6d tuple;
-  tuple << 1.0, -2.0, 0.5, 0.3, -0.1, 2.0;
-  const Eigen::Isometry3d start = TransformFromTuple(tuple);
-  Vector6d delta;
-  delta << 0.01, -0.02, 0.03, 0.02, -0.01, 0.015;
-  const Eigen::Vector3d pivot(0.5, -3.0, 1.0);
+  const UpdateExample example;
+  const Eigen::Isometry3d& start = example.start;
+  const Vector6d& delta = example.delta;
+  const Eigen::Vector3d& pivot = example.pivot;
   for (const TransformUpdate update : {TransformUpdate::kAboutSourcePoint, TransformUpdate::kLeftTwist}) {
     for (const Eigen::Vector3d& q : {Eigen::Vector3d::Zero().eval(), pivot}) {
       const Eigen::Isometry3d moved = ApplyTransformUpdate(start, delta, update, q);
