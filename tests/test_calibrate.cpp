@@ -424,6 +424,53 @@ TEST_F(CalibrateOnSimulation, RangeSplitScoresNearAndFarPointsAsTwoScenes) {
   EXPECT_NE(why.find("range_split_m"), std::string::npos);
 }
 
+TEST_F(CalibrateOnSimulation, ThinningKeepsFewerPointsOfLongSwathesAndTheSameMinimum) {
+  const io::Dataset dataset = io::OpenDataset(DatasetPath());
+  CalibrationOptions options;
+  options.scenes.scenes_per_camera = 6;
+  options.scenes.swathe_length_m = 20.0;  // far scans pile onto few pixels
+  CalibrationInput input = Load(dataset, options.scenes);
+  // Thinning projects at the rig's guess: set it to the truth, so that the
+  // same points are compared with and without it.
+  for (LidarInfo& lidar : input.rig.lidars) lidar.T_base_lidar = dataset.ground_truth->T_base_lidar.at(lidar.name);
+  const CameraInfo& camera = *input.rig.FindCamera("left");
+  const Eigen::Isometry3d T_camera_lidar =
+      camera.T_base_camera.inverse() * dataset.ground_truth->T_base_lidar.at("lms_rear");
+  PairCost whole = BuildPairCost(input, camera, "lms_rear", options);
+  options.thin_max_points_per_cell = 2;
+  std::string why;
+  ASSERT_TRUE(options.IsValid(&why)) << why;
+  PairCost thinned = BuildPairCost(input, camera, "lms_rear", options);
+  ASSERT_EQ(thinned.SceneCount(), whole.SceneCount());
+  whole.RefreshVisibility(T_camera_lidar);
+  thinned.RefreshVisibility(T_camera_lidar);
+  std::size_t whole_points = 0, thinned_points = 0;
+  for (int s = 0; s < whole.SceneCount(); ++s) {
+    const std::size_t scene_whole = whole.ProjectedAtRefresh()[static_cast<std::size_t>(s)];
+    const std::size_t scene_thinned = thinned.ProjectedAtRefresh()[static_cast<std::size_t>(s)];
+    EXPECT_LE(scene_thinned, scene_whole);
+    whole_points += scene_whole;
+    thinned_points += scene_thinned;
+  }
+  std::cout << "[ measured ] projected points at the truth: " << whole_points << " whole, " << thinned_points
+            << " thinned\n";
+  EXPECT_LT(thinned_points, whole_points * 3 / 4);
+  EXPECT_GT(thinned_points, whole_points / 20);
+  // The thinned cost still rises away from the truth along every axis.
+  const double at_truth = thinned.Evaluate(T_camera_lidar);
+  for (int axis = 0; axis < 6; ++axis) {
+    for (const double sign : {-1.0, 1.0}) {
+      Vector6d delta = Vector6d::Zero();
+      delta[axis] = sign * (axis < 3 ? 0.05 : RadiansFromDegrees(1.0));
+      EXPECT_GT(thinned.Evaluate(ApplyTransformUpdate(T_camera_lidar, delta, TransformUpdate::kLeftTwist)), at_truth)
+          << "axis " << axis;
+    }
+  }
+  CalibrationResult result;
+  RecordCommonSettings(options, &result);
+  EXPECT_NE(result.settings.at("thinning").find("2 points per 4 px cell"), std::string::npos);
+}
+
 TEST_F(CalibrateOnSimulation, BasinCheckRestartsAboutEachAxisAndComparesTheEnds) {
   const io::Dataset dataset = io::OpenDataset(DatasetPath());
   CalibrationOptions options;

@@ -106,6 +106,20 @@ void AddCostOptions(CLI::App* command, CostArguments* args) {
                       "near ones; 0 = off")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
+  command->add_option("--thin", args->thin,
+                      "Thin crowded swathes: project each scene's points at the initial guess into cells of "
+                      "--thin-cell pixels and keep about this many per cell (far scans of long swathes pile onto "
+                      "few pixels); points more than --thin-margin pixels outside the image are dropped; 0 = off")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  command->add_option("--thin-cell", args->thin_cell_px, "Cell size of --thin (pixels)")
+      ->check(CLI::Range(1, 4096))
+      ->capture_default_str();
+  command->add_option("--thin-margin", args->thin_margin_px,
+                      "With --thin, points projecting farther than this many pixels outside the image at the "
+                      "initial guess are dropped (keep it above the pixel motion the guess's error allows)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
 }
 
 io::ImageChannel CostArguments::ImageChannel() const {
@@ -129,6 +143,9 @@ void ApplyCostArguments(const CostArguments& args, CalibrationOptions* options) 
   options->cost.swathe.min_range_m = args.min_range_m;
   options->cost.swathe.max_range_m = args.max_range_m;
   options->range_split_m = args.range_split_m;
+  options->thin_max_points_per_cell = args.thin;
+  options->thin_cell_px = args.thin_cell_px;
+  options->thin_margin_px = args.thin_margin_px;
   options->normalisation.reflectance = *ParseNormalisation(args.normalise_reflectance);
   options->normalisation.intensity = *ParseNormalisation(args.normalise_intensity);
   const bool intensity_given = args.normalise_intensity_option != nullptr && args.normalise_intensity_option->count() > 0;

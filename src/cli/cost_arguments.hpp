@@ -38,6 +38,9 @@ struct CostArguments {
   double min_range_m = 1.0;    // lidar points nearer than this (lidar frame) are dropped
   double max_range_m = 100.0;  // and farther than this
   double range_split_m = 0.0;  // 0 = one histogram per scene
+  int thin = 0;                // points kept per crowded image cell; 0 = off
+  int thin_cell_px = 4;
+  double thin_margin_px = 128.0;
   // Set by AddCostOptions; after parsing, count() > 0 when given on the command line.
   CLI::Option* bins_option = nullptr;
   CLI::Option* binning_option = nullptr;

@@ -81,6 +81,10 @@ bool CalibrationOptions::IsValid(std::string* why) const {
   if (!std::isfinite(swathe_trim_margin_m)) return fail("swathe_trim_margin_m must be a finite number of metres");
   if (!(range_split_m >= 0.0) || !std::isfinite(range_split_m))
     return fail("range_split_m must be 0 (off) or a positive number of metres");
+  if (thin_max_points_per_cell < 0) return fail("thin_max_points_per_cell must be 0 (off) or positive");
+  if (thin_cell_px < 1) return fail("thin_cell_px must be a positive number of pixels");
+  if (!(thin_margin_px >= 0.0) || !std::isfinite(thin_margin_px))
+    return fail("thin_margin_px must be a finite number of pixels >= 0");
   if (!(time_budget_s >= 0.0) || !std::isfinite(time_budget_s)) return fail("time_budget_s must be >= 0 seconds");
   if (!(agreement_warning_translation_m > 0.0) || !(agreement_warning_rotation_deg > 0.0))
     return fail("agreement warning thresholds must be positive");
@@ -137,6 +141,11 @@ void RecordCommonSettings(const CalibrationOptions& options, CalibrationResult* 
           : "off";
   settings["refresh_border_px"] = FormatNumber(options.cost.swathe.refresh_border_px);
   settings["range_split_m"] = FormatNumber(options.range_split_m);
+  settings["thinning"] = options.thin_max_points_per_cell > 0
+                             ? fmt::format("{} points per {} px cell at the initial guess, margin {} px",
+                                           options.thin_max_points_per_cell, options.thin_cell_px,
+                                           FormatNumber(options.thin_margin_px))
+                             : "off";
   settings["lidar_range_m"] =
       FormatNumber(options.cost.swathe.min_range_m) + " .. " + FormatNumber(options.cost.swathe.max_range_m);
   settings["threads"] = std::to_string(options.threads);
@@ -210,6 +219,15 @@ PairCost BuildPairCost(const CalibrationInput& input, const CameraInfo& camera, 
     }
     build(trimmed, kept_scans);
   });
+  if (options.thin_max_points_per_cell > 0 && lidar_info != nullptr) {
+    const Eigen::Isometry3d T_camera_lidar_guess = camera.T_base_camera.inverse() * lidar_info->T_base_lidar;
+    tbb::parallel_for(std::size_t{0}, swathes.size(), [&](std::size_t s) {
+      for (SceneSwathe& swathe : swathes[s]) {
+        swathe.ThinByImageDensity(camera.model, T_camera_lidar_guess, options.thin_cell_px,
+                                  options.thin_max_points_per_cell, options.thin_margin_px);
+      }
+    });
+  }
   std::vector<SceneSwathe> kept;
   for (auto& scene_swathes : swathes) {
     for (SceneSwathe& swathe : scene_swathes) kept.push_back(std::move(swathe));

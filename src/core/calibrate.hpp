@@ -98,6 +98,15 @@ struct CalibrationOptions {
   // histogram), so the few far returns (walls, parked cars) weigh as much as
   // the many near road returns. Visibility is then tested within a band.
   double range_split_m = 0.0;
+  // Density thinning (thin_max_points_per_cell 0 = off): each scene's points
+  // are projected at the initial guess into square cells of thin_cell_px
+  // pixels and a crowded cell keeps about thin_max_points_per_cell of them
+  // (SceneSwathe::ThinByImageDensity); points farther than thin_margin_px
+  // outside the image at the guess are dropped. Long swathes (--swathe-length
+  // 30) pile the far scans' points onto few pixels: thinning makes them cheap.
+  int thin_max_points_per_cell = 0;
+  int thin_cell_px = 4;
+  double thin_margin_px = 128.0;
 
   bool IsValid(std::string* why = nullptr) const;
 };

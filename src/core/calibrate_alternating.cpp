@@ -108,6 +108,9 @@ std::uint64_t AlternatingSetup::Fingerprint(const CalibrationOptions& options,
   digest.Add(swathe.min_range_m);
   digest.Add(swathe.max_range_m);
   digest.Add(options.range_split_m);
+  digest.Add(static_cast<std::uint64_t>(options.thin_max_points_per_cell));
+  digest.Add(static_cast<std::uint64_t>(options.thin_cell_px));
+  digest.Add(options.thin_margin_px);
   digest.Add(static_cast<std::uint64_t>(options.nelder_mead.max_iterations));
   digest.Add(static_cast<std::uint64_t>(alternating.lower_solver));
   digest.Add(static_cast<std::uint64_t>(alternating.lower_gradient.max_iterations));

@@ -156,6 +156,75 @@ void SceneSwathe::SetImageBlur(double sigma_px) {
   image_ = blurred;
 }
 
+namespace {
+
+// SplitMix64's finaliser: a well-mixed 64-bit hash of a 64-bit key.
+std::uint64_t MixBits(std::uint64_t key) {
+  key += 0x9E3779B97F4A7C15ULL;
+  key = (key ^ (key >> 30)) * 0xBF58476D1CE4E5B9ULL;
+  key = (key ^ (key >> 27)) * 0x94D049BB133111EBULL;
+  return key ^ (key >> 31);
+}
+
+}  // namespace
+
+std::size_t SceneSwathe::ThinByImageDensity(const CameraModel& model, const Eigen::Isometry3d& T_camera_lidar,
+                                            int cell_px, int max_points_per_cell, double margin_px) {
+  if (cell_px <= 0 || max_points_per_cell <= 0 || image_.empty() || model.width != image_.cols ||
+      model.height != image_.rows) {
+    return PointCount();
+  }
+  const double margin = std::max(0.0, margin_px);
+  const int cells_u = static_cast<int>(std::ceil((model.width + 2.0 * margin) / cell_px));
+  const int cells_v = static_cast<int>(std::ceil((model.height + 2.0 * margin) / cell_px));
+  constexpr std::uint32_t kOutside = std::numeric_limits<std::uint32_t>::max();
+  std::vector<std::uint32_t> cell_of_point(PointCount(), kOutside);
+  std::vector<std::uint32_t> points_in_cell(static_cast<std::size_t>(cells_u) * static_cast<std::size_t>(cells_v), 0);
+  for (std::size_t scan = 0; scan < ScanCount(); ++scan) {
+    const Eigen::Isometry3d T_camerak_lidar = T_camerak_cameraj_[scan] * T_camera_lidar;
+    for (std::size_t i = scan_begin_[scan]; i < scan_begin_[scan + 1]; ++i) {
+      Eigen::Vector2d pixel;
+      if (!model.Project(T_camerak_lidar * Eigen::Vector3d(x_[i], y_[i], z_[i]), &pixel, -margin,
+                         static_cast<double>(projection_.min_depth))) {
+        continue;
+      }
+      const int cu = std::clamp(static_cast<int>((pixel.x() + 0.5 + margin) / cell_px), 0, cells_u - 1);
+      const int cv = std::clamp(static_cast<int>((pixel.y() + 0.5 + margin) / cell_px), 0, cells_v - 1);
+      cell_of_point[i] = static_cast<std::uint32_t>(cv * cells_u + cu);
+      ++points_in_cell[cell_of_point[i]];
+    }
+  }
+  std::size_t kept = 0;
+  std::vector<std::size_t> scan_begin{0};
+  const auto seed = MixBits(static_cast<std::uint64_t>(image_t_us_));
+  for (std::size_t scan = 0; scan < ScanCount(); ++scan) {
+    for (std::size_t i = scan_begin_[scan]; i < scan_begin_[scan + 1]; ++i) {
+      if (cell_of_point[i] == kOutside) continue;
+      const std::uint32_t crowd = points_in_cell[cell_of_point[i]];
+      // Keep with probability max / crowd: compare 32 uniform bits with the threshold.
+      const bool keep = crowd <= static_cast<std::uint32_t>(max_points_per_cell) ||
+                        (MixBits(seed ^ i) >> 32) * static_cast<double>(crowd) <
+                            static_cast<double>(max_points_per_cell) * 4294967296.0;
+      if (!keep) continue;
+      x_[kept] = x_[i];
+      y_[kept] = y_[i];
+      z_[kept] = z_[i];
+      reflectance01_[kept] = reflectance01_[i];
+      visible_[kept] = visible_[i];
+      ++kept;
+    }
+    scan_begin.push_back(kept);
+  }
+  for (auto* values : {&x_, &y_, &z_, &reflectance01_}) {
+    values->resize(kept);
+    values->shrink_to_fit();
+  }
+  visible_.resize(kept);
+  visible_.shrink_to_fit();
+  scan_begin_ = std::move(scan_begin);
+  return kept;
+}
+
 std::size_t SceneSwathe::VisibleCount() const {
   return static_cast<std::size_t>(std::count(visible_.begin(), visible_.end(), std::uint8_t{1}));
 }

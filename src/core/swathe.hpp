@@ -118,6 +118,20 @@ class SceneSwathe {
   };
   BilinearSampler Sampler() const { return {image_.ptr<float>(), image_.step1()}; }
 
+  // Thins the swathe where its points crowd in the image: with the points
+  // projected under T_camera_lidar (an estimate, e.g. the initial guess) into
+  // square cells of cell_px pixels, a cell holding n > max_points_per_cell
+  // points keeps each of them with probability max_points_per_cell / n (a fixed
+  // hash of the scene's image time and the point's index: deterministic).
+  // Points that do not project into the image grown by margin_px on every side
+  // (or lie behind the camera) are dropped; keep margin_px above the pixel
+  // motion the optimisation may bring. Far scans of a long swathe land many
+  // points on one pixel; thinning them costs little information and makes
+  // every evaluation faster. Returns the number of points kept.
+  // `camera` is the model the swathe was built with (a size mismatch leaves it whole).
+  std::size_t ThinByImageDensity(const CameraModel& camera, const Eigen::Isometry3d& T_camera_lidar, int cell_px,
+                                 int max_points_per_cell, double margin_px);
+
   // Recomputes the visibility mask with the z-buffer at T_camera_lidar; points
   // that do not project at this estimate stay visible. Returns the number of
   // points that project (before hiding).
