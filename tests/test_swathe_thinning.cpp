@@ -13,6 +13,7 @@
 
 #include "core/calibrate.hpp"
 #include "core/swathe.hpp"
+#include "support/random_swathe.hpp"
 
 namespace scenecal {
 namespace {
@@ -25,18 +26,14 @@ constexpr double kMarginPx = 20.0;
 CameraInfo MakeCamera() {
   CameraInfo camera;
   camera.name = "cam";
-  camera.model.width = 160;
-  camera.model.height = 120;
-  camera.model.fx = camera.model.fy = 100.0;
-  camera.model.cx = 80.0;
-  camera.model.cy = 60.0;
+  camera.model = test::MakeKernelTestCamera(CameraModelKind::kPinhole);  // 320 x 240
   return camera;
 }
 
 // A camera-frame point at depth z (m) that projects to pixel (u, v) of MakeCamera.
 LidarPoint AtPixel(double u, double v, double z, float reflectance) {
-  return {static_cast<float>((u - 80.0) / 100.0 * z), static_cast<float>((v - 60.0) / 100.0 * z),
-          static_cast<float>(z), reflectance};
+  const Eigen::Vector3d p = MakeCamera().model.Unproject(Eigen::Vector2d(u, v)) * z;
+  return {static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z()), reflectance};
 }
 
 SceneSwathe MakeSwathe(std::vector<LidarScan>* scans_storage) {
@@ -66,7 +63,7 @@ SceneSwathe MakeSwathe(std::vector<LidarScan>* scans_storage) {
   second.points.push_back(AtPixel(-40.0, 60.0, 5.0, id += 1.0f));  // beyond the margin: dropped
   second.points.push_back({0.0f, 0.0f, -5.0f, id += 1.0f});         // behind the camera: dropped
 
-  cv::Mat image(120, 160, CV_32FC1);
+  cv::Mat image(camera.model.height, camera.model.width, CV_32FC1);
   cv::randu(image, 0.0f, 1.0f);
   std::vector<const LidarScan*> scans{&(*scans_storage)[0], &(*scans_storage)[1]};
   return SceneSwathe::Build(scene, camera, image, scans, SwatheOptions{}, NormalisationOptions{});
@@ -126,7 +123,7 @@ TEST(SwatheThinning, IsDeterministicAndOffAtCapZero) {
   EXPECT_EQ(c.PointCount(), all);
   // A camera model of another size leaves the swathe whole.
   CameraModel other = camera;
-  other.width = 320;
+  other.width = 640;
   EXPECT_EQ(c.ThinByImageDensity(other, Eigen::Isometry3d::Identity(), kCellPx, 5, kMarginPx), all);
 }
 
@@ -140,7 +137,8 @@ TEST(SwatheThinning, ALargeCapDropsOnlyPointsBeyondTheMarginOrBehind) {
   std::vector<LidarScan> storage_moved;
   SceneSwathe moved = MakeSwathe(&storage_moved);
   Eigen::Isometry3d shifted = Eigen::Isometry3d::Identity();
-  shifted.translation().x() = -5.0 * (40.0 + kMarginPx + 5.0) / 100.0;  // u of the crowd -> about -25 - margin
+  // u of the crowd (depth 5 m) -> 40 - (45 + margin) = -25: beyond the margin.
+  shifted.translation().x() = -5.0 * (40.0 + kMarginPx + 5.0) / MakeCamera().model.fx;
   const std::size_t kept = moved.ThinByImageDensity(MakeCamera().model, shifted, kCellPx, 1000, kMarginPx);
   EXPECT_EQ(kept, static_cast<std::size_t>(kSparse));  // the sparse points move to u = 25 .. 79 and stay
 }
