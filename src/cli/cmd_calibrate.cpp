@@ -2,6 +2,7 @@
 // file timestamps, loads only the images and scans they need, runs
 // Calibrate (core/calibrate.hpp) and writes the result atomically. With
 // ground truth in the dataset, prints the errors per lidar and per pair.
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <map>
@@ -141,6 +142,14 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
   const double load_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   spdlog::info("loaded {} lidar points in {:.2f} s", loaded.lidar_points, load_s);
 
+  const bool has_push_broom = std::any_of(input.rig.lidars.begin(), input.rig.lidars.end(),
+                                          [](const LidarInfo& lidar) { return lidar.kind == LidarKind::k2d; });
+  if (has_push_broom && options.range_split_m <= 0.0) {
+    // 10 m push-broom swathes leave the tilt nearly free (BENCHMARK.md, "Sixth session").
+    spdlog::info("push-broom lidar: its tilt is weakly determined by 10 m swathes; on the simulated rear push-broom "
+                 "drive 30 m swathes scored near and far apart did much better (--scheme joint --swathe-length 30 "
+                 "--range-split 6 --binning bspline --thin 2; README, \"What to expect\")");
+  }
   const bool lbfgs = options.lower_solver == LowerSolver::kLbfgs;
   spdlog::info("calibrating: scheme {}, metric {}, {} bins {}, reflectance {}, stages {}, lower solver {}, up to {} "
                "iterations a run",
