@@ -148,7 +148,8 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
     // 10 m push-broom swathes leave the tilt nearly free (BENCHMARK.md, "Sixth session").
     spdlog::info("push-broom lidar: its tilt is weakly determined by 10 m swathes; on the simulated rear push-broom "
                  "drive 30 m swathes scored near and far apart did much better (--scheme joint --swathe-length 30 "
-                 "--range-split 6 --binning bspline --thin 2; README, \"What to expect\")");
+                 "--range-split 6 --thin 2 --lower-solver lbfgs --refresh-border 48 at 1280 px wide; README, "
+                 "\"What to expect\")");
   }
   const bool lbfgs = options.lower_solver == LowerSolver::kLbfgs;
   spdlog::info("calibrating: scheme {}, metric {}, {} bins {}, reflectance {}, stages {}, lower solver {}, up to {} "
