@@ -147,9 +147,9 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
   if (has_push_broom && options.range_split_m <= 0.0) {
     // 10 m push-broom swathes leave the tilt nearly free (BENCHMARK.md, "Sixth session").
     spdlog::info("push-broom lidar: its tilt is weakly determined by 10 m swathes; on the simulated drives (rear "
-                 "and front push-broom lidars) 30 m swathes scored near and far apart did much better (--scheme joint --swathe-length 30 "
-                 "--range-split 6 --thin 2 --lower-solver lbfgs --refresh-border 48 at 1280 px wide; README, "
-                 "\"What to expect\")");
+                 "and front push-broom lidars) 30 m swathes scored near and far apart did much better (--scheme "
+                 "joint --swathe-length 30 --range-split 6 --thin 2 --lower-solver lbfgs --refresh-border 48 at "
+                 "1280 px wide; README, \"What to expect\")");
   }
   const bool lbfgs = options.lower_solver == LowerSolver::kLbfgs;
   spdlog::info("calibrating: scheme {}, metric {}, {} bins {}, reflectance {}, stages {}, lower solver {}, up to {} "
