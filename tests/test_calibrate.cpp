@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iostream>
 #include <map>
 #include <memory>
@@ -51,6 +52,20 @@ class CalibrateOnSimulation : public ::testing::Test {
 };
 
 fs::path CalibrateOnSimulation::root_;
+
+// Expects cost(T) to rise above cost(at) when `at` moves by step_m along each
+// axis and by step_rad about each axis, both ways (left perturbation ExpSE3).
+void ExpectCostRisesAwayFrom(const std::function<double(const Eigen::Isometry3d&)>& cost,
+                             const Eigen::Isometry3d& at, double step_m, double step_rad) {
+  const double at_value = cost(at);
+  for (int axis = 0; axis < 6; ++axis) {
+    for (const double sign : {-1.0, 1.0}) {
+      Vector6d delta = Vector6d::Zero();
+      delta[axis] = sign * (axis < 3 ? step_m : step_rad);
+      EXPECT_LT(at_value, cost(ExpSE3(delta) * at)) << "axis " << axis << " sign " << sign;
+    }
+  }
+}
 
 TEST_F(CalibrateOnSimulation, JointNidRecoversTheTruth) {
   const io::Dataset dataset = io::OpenDataset(DatasetPath());
@@ -112,14 +127,8 @@ TEST_F(CalibrateOnSimulation, CostIsLowestAtTheTruth) {
     EXPECT_GT(costs.back()->RefreshVisibility(camera.T_base_camera.inverse() * truth), 10);
     pairs.push_back(costs.back().get());
   }
-  const double at_truth = EvaluateJoint(pairs, truth);
-  for (int axis = 0; axis < 6; ++axis) {
-    for (const double sign : {-1.0, 1.0}) {
-      Vector6d delta = Vector6d::Zero();
-      delta[axis] = sign * (axis < 3 ? 0.02 : RadiansFromDegrees(0.2));
-      EXPECT_LT(at_truth, EvaluateJoint(pairs, ExpSE3(delta) * truth)) << "axis " << axis << " sign " << sign;
-    }
-  }
+  ExpectCostRisesAwayFrom([&](const Eigen::Isometry3d& T) { return EvaluateJoint(pairs, T); }, truth, 0.02,
+                          RadiansFromDegrees(0.2));
 }
 
 TEST_F(CalibrateOnSimulation, OnceSchemeCalibratesEachPairAndReportsAgreement) {
@@ -457,15 +466,8 @@ TEST_F(CalibrateOnSimulation, ThinningKeepsFewerPointsOfLongSwathesAndTheSameMin
   EXPECT_LT(thinned_points, whole_points * 3 / 4);
   EXPECT_GT(thinned_points, whole_points / 20);
   // The thinned cost still rises away from the truth along every axis.
-  const double at_truth = thinned.Evaluate(T_camera_lidar);
-  for (int axis = 0; axis < 6; ++axis) {
-    for (const double sign : {-1.0, 1.0}) {
-      Vector6d delta = Vector6d::Zero();
-      delta[axis] = sign * (axis < 3 ? 0.05 : RadiansFromDegrees(1.0));
-      EXPECT_GT(thinned.Evaluate(ApplyTransformUpdate(T_camera_lidar, delta, TransformUpdate::kLeftTwist)), at_truth)
-          << "axis " << axis;
-    }
-  }
+  ExpectCostRisesAwayFrom([&](const Eigen::Isometry3d& T) { return thinned.Evaluate(T); }, T_camera_lidar, 0.05,
+                          RadiansFromDegrees(1.0));
   CalibrationResult result;
   RecordCommonSettings(options, &result);
   EXPECT_NE(result.settings.at("thinning").find("2 points per 4 px cell"), std::string::npos);

@@ -9,6 +9,8 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "core/hash.hpp"
+
 namespace scenecal {
 
 bool SwatheOptions::IsValid(std::string* why) const {
@@ -156,18 +158,6 @@ void SceneSwathe::SetImageBlur(double sigma_px) {
   image_ = blurred;
 }
 
-namespace {
-
-// SplitMix64's finaliser: a well-mixed 64-bit hash of a 64-bit key.
-std::uint64_t MixBits(std::uint64_t key) {
-  key += 0x9E3779B97F4A7C15ULL;
-  key = (key ^ (key >> 30)) * 0xBF58476D1CE4E5B9ULL;
-  key = (key ^ (key >> 27)) * 0x94D049BB133111EBULL;
-  return key ^ (key >> 31);
-}
-
-}  // namespace
-
 std::size_t SceneSwathe::ThinByImageDensity(const CameraModel& model, const Eigen::Isometry3d& T_camera_lidar,
                                             int cell_px, int max_points_per_cell, double margin_px) {
   if (cell_px <= 0 || max_points_per_cell <= 0 || image_.empty() || model.width != image_.cols ||
@@ -196,14 +186,14 @@ std::size_t SceneSwathe::ThinByImageDensity(const CameraModel& model, const Eige
   }
   std::size_t kept = 0;
   std::vector<std::size_t> scan_begin{0};
-  const auto seed = MixBits(static_cast<std::uint64_t>(image_t_us_));
+  const auto seed = Mix64(static_cast<std::uint64_t>(image_t_us_));
   for (std::size_t scan = 0; scan < ScanCount(); ++scan) {
     for (std::size_t i = scan_begin_[scan]; i < scan_begin_[scan + 1]; ++i) {
       if (cell_of_point[i] == kOutside) continue;
       const std::uint32_t crowd = points_in_cell[cell_of_point[i]];
       // Keep with probability max / crowd: compare 32 uniform bits with the threshold.
       const bool keep = crowd <= static_cast<std::uint32_t>(max_points_per_cell) ||
-                        (MixBits(seed ^ i) >> 32) * static_cast<double>(crowd) <
+                        (Mix64(seed ^ i) >> 32) * static_cast<double>(crowd) <
                             static_cast<double>(max_points_per_cell) * 4294967296.0;
       if (!keep) continue;
       x_[kept] = x_[i];

@@ -8,15 +8,9 @@
 #include <cmath>
 #include <cstdint>
 
-namespace scenecal::sim {
+#include "core/hash.hpp"
 
-// SplitMix64 finaliser: a strong 64-bit mix.
-constexpr std::uint64_t Mix64(std::uint64_t x) {
-  x += 0x9E3779B97F4A7C15ULL;
-  x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ULL;
-  x = (x ^ (x >> 27)) * 0x94D049BB133111EBULL;
-  return x ^ (x >> 31);
-}
+namespace scenecal::sim {
 
 // Hash of a key made of several integers.
 constexpr std::uint64_t HashKey(std::uint64_t a, std::uint64_t b = 0, std::uint64_t c = 0, std::uint64_t d = 0) {
