@@ -110,7 +110,7 @@ void AddCostOptions(CLI::App* command, CostArguments* args) {
                       "Thin crowded swathes: project each scene's points at the initial guess into cells of "
                       "--thin-cell pixels and keep about this many per cell (far scans of long swathes pile onto "
                       "few pixels); points more than --thin-margin pixels outside the image are dropped; 0 = off")
-      ->check(CLI::NonNegativeNumber)
+      ->check(CLI::Range(0, 1000000))
       ->capture_default_str();
   command->add_option("--thin-cell", args->thin_cell_px, "Cell size of --thin (pixels)")
       ->check(CLI::Range(1, 4096))
@@ -118,7 +118,7 @@ void AddCostOptions(CLI::App* command, CostArguments* args) {
   command->add_option("--thin-margin", args->thin_margin_px,
                       "With --thin, points projecting farther than this many pixels outside the image at the "
                       "initial guess are dropped (keep it above the pixel motion the guess's error allows)")
-      ->check(CLI::NonNegativeNumber)
+      ->check(CLI::Range(0.0, 100000.0))
       ->capture_default_str();
 }
 
