@@ -36,6 +36,7 @@ struct CalibrateArguments {
   std::string output;
   std::string scheme = "alt";
   CostArguments cost;  // metric, scenes, swathes, histogram, normalisation, occlusion
+  MotionCorrectionArguments motion;
   std::string lower_solver = "simplex";
   int lbfgs_iterations = 100;
   int threads = 0;
@@ -75,6 +76,7 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
   // Arguments already checked by CLI11 validators; parse into the enums.
   ParseCalibrationScheme(args.scheme, &options.scheme);
   ApplyCostArguments(args.cost, &options);
+  ApplyMotionCorrectionArguments(args.motion, &options);
   ParseLowerSolver(args.lower_solver, &options.lower_solver);
   if (options.lower_solver == LowerSolver::kLbfgs) {
     if (!args.cost.BinningGiven()) {
@@ -291,6 +293,7 @@ CommandRunner AddCalibrateCommand(CLI::App& app) {
       ->check(CLI::IsMember({"once", "joint", "alt"}))
       ->capture_default_str();
   AddCostOptions(command, &args->cost);
+  AddMotionCorrectionOptions(command, &args->motion);
   command->add_option("--lower-solver", args->lower_solver,
                       "Local optimiser of every stage (once, joint) and of the alt lower level: simplex (Nelder-Mead, "
                       "the paper; derivative free, any binning) or lbfgs (quasi-Newton with analytic gradients of the "

@@ -1,8 +1,11 @@
 #include "cli/cost_arguments.hpp"
 
-#include "cli/load_input.hpp"
+#include <algorithm>
 
 #include <spdlog/spdlog.h>
+
+#include "cli/load_input.hpp"
+#include "core/geometry.hpp"
 
 namespace scenecal::cli {
 
@@ -173,6 +176,47 @@ io::Dataset OpenDatasetWithDefaults(const std::string& path, const CostArguments
   *single_frame_defaults = ApplySingleFrameDefaults(dataset, args.BinsGiven(), options);
   if (!single_frame_defaults->empty()) spdlog::info("single-frame 3D-lidar data: {}", *single_frame_defaults);
   return dataset;
+}
+
+void AddMotionCorrectionOptions(CLI::App* command, MotionCorrectionArguments* args) {
+  command->add_option("--motion-correction", args->terms,
+                      "Correct each camera frame's swathe for odometry drift, for long swathes (--swathe-length 30) "
+                      "from drifting odometry: the terms to estimate, a comma list of turn (rates across the "
+                      "travel: heading and pitch), scale (of the distance travelled) and roll (rate about the "
+                      "travel); each frame's from its own cost at the current estimate, before each stage from "
+                      "--motion-correction-from-stage on (once and joint schemes). Off when not given")
+      ->delimiter(',')
+      ->check(CLI::IsMember({"turn", "scale", "roll"}));
+  command->add_option("--motion-correction-from-stage", args->first_stage,
+                      "First coarse-to-fine stage (0-based) before which the drift correction is estimated (from "
+                      "the first, the guess's own error is taken for drift)")
+      ->check(CLI::Range(0, 100))
+      ->capture_default_str();
+  command->add_option("--motion-max-scale", args->max_scale_percent,
+                      "Bound on the drift correction's scale (percent of the distance travelled)")
+      ->check(CLI::Range(0.01, 20.0))
+      ->capture_default_str();
+  command->add_option("--motion-max-rate", args->max_rate_deg_per_m,
+                      "Bound on each of the drift correction's rates (degrees per metre travelled)")
+      ->check(CLI::Range(0.0005, 1.0))
+      ->capture_default_str();
+}
+
+void ApplyMotionCorrectionArguments(const MotionCorrectionArguments& args, CalibrationOptions* options) {
+  const auto has_term = [&](const char* term) {
+    return std::find(args.terms.begin(), args.terms.end(), term) != args.terms.end();
+  };
+  options->motion_correction = !args.terms.empty();
+  options->motion.scale = has_term("scale");
+  options->motion.turn = has_term("turn");
+  options->motion.roll = has_term("roll");
+  options->motion_correction_first_stage = args.first_stage;
+  options->motion.max_scale = args.max_scale_percent / 100.0;
+  options->motion.max_rate_rad_per_m = RadiansFromDegrees(args.max_rate_deg_per_m);
+  // The simplex's first steps stay inside the bounds.
+  options->motion.initial_step_scale = std::min(options->motion.initial_step_scale, options->motion.max_scale);
+  options->motion.initial_step_rate_rad_per_m =
+      std::min(options->motion.initial_step_rate_rad_per_m, options->motion.max_rate_rad_per_m);
 }
 
 }  // namespace scenecal::cli

@@ -7,6 +7,7 @@
 
 #include <memory>
 #include <string>
+#include <vector>
 
 #include <CLI/CLI.hpp>
 #include <tbb/global_control.h>
@@ -59,6 +60,16 @@ void AddCostOptions(CLI::App* command, CostArguments* args);
 // channel the image intensity is rank-normalised unless --normalise-intensity
 // was given (its values crowd a narrow band of [0, 1]).
 void ApplyCostArguments(const CostArguments& args, CalibrationOptions* options);
+
+// The per-frame drift correction of `calibrate` (CalibrationOptions::motion_correction).
+struct MotionCorrectionArguments {
+  std::vector<std::string> terms;  // of scale, turn, roll; empty = off
+  int first_stage = 1;
+  double max_scale_percent = 2.0;
+  double max_rate_deg_per_m = 0.05;
+};
+void AddMotionCorrectionOptions(CLI::App* command, MotionCorrectionArguments* args);
+void ApplyMotionCorrectionArguments(const MotionCorrectionArguments& args, CalibrationOptions* options);
 
 // Caps TBB's worker threads at `threads` while the returned object lives;
 // nothing (no cap) for 0 = all hardware threads.

@@ -80,6 +80,7 @@ void WriteCalibrationReport(const std::string& dir, const CalibrationInput& inpu
     spdlog::info("report: {}: cost slices and overlays", label);
     PairCost cost = BuildPairCost(input, *camera, pair.lidar, options);
     if (cost.Scenes().empty()) continue;
+    CorrectMotionAtAnswer(options, {&cost}, camera->T_base_camera * *T_result);
     const Eigen::Isometry3d& T_initial = pair.T_camera_lidar_initial;
 
     report::CostSlicePanel panel;

@@ -56,6 +56,10 @@ std::vector<LidarBasinCheck> CheckBasins(const CalibrationInput& input, const Ca
       for (auto& pair : owned) PreparePairForStage(*pair, stage, pair->Camera().T_base_camera.inverse() * T_base_lidar);
     };
     prepare_at(sharp, answer.T_base_lidar);
+    // The restarts keep the drift corrections estimated at the answer.
+    std::vector<PairCost*> corrected;
+    for (auto& pair : owned) corrected.push_back(pair.get());
+    CorrectMotionAtAnswer(options, corrected, answer.T_base_lidar);
     check.cost_answer = EvaluateJoint(pairs, answer.T_base_lidar);
     if (!std::isfinite(check.cost_answer)) {
       check.why = "no usable scene at the answer";

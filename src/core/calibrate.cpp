@@ -85,6 +85,10 @@ bool CalibrationOptions::IsValid(std::string* why) const {
   if (thin_cell_px < 1) return fail("thin_cell_px must be a positive number of pixels");
   if (!(thin_margin_px >= 0.0) || !std::isfinite(thin_margin_px))
     return fail("thin_margin_px must be a finite number of pixels >= 0");
+  if (motion_correction && !motion.IsValid(why)) return false;
+  if (motion_correction && scheme == CalibrationScheme::kAlt)
+    return fail("motion correction is for the once and joint schemes (alt's lower levels do not estimate it)");
+  if (motion_correction_first_stage < 0) return fail("motion_correction_first_stage must be >= 0");
   if (!(time_budget_s >= 0.0) || !std::isfinite(time_budget_s)) return fail("time_budget_s must be >= 0 seconds");
   if (!(agreement_warning_translation_m > 0.0) || !(agreement_warning_rotation_deg > 0.0))
     return fail("agreement warning thresholds must be positive");
@@ -146,6 +150,14 @@ void RecordCommonSettings(const CalibrationOptions& options, CalibrationResult* 
                                            options.thin_max_points_per_cell, options.thin_cell_px,
                                            FormatNumber(options.thin_margin_px))
                              : "off";
+  settings["motion_correction"] =
+      options.motion_correction
+          ? fmt::format("per frame from stage {}: {}{}{}(scale within {} %, rates within {} deg/m)",
+                        options.motion_correction_first_stage, options.motion.scale ? "scale " : "",
+                        options.motion.turn ? "turn " : "", options.motion.roll ? "roll " : "",
+                        FormatNumber(100.0 * options.motion.max_scale),
+                        FormatNumber(DegreesFromRadians(options.motion.max_rate_rad_per_m)))
+          : "off";
   settings["lidar_range_m"] =
       FormatNumber(options.cost.swathe.min_range_m) + " .. " + FormatNumber(options.cost.swathe.max_range_m);
   settings["threads"] = std::to_string(options.threads);
@@ -337,6 +349,18 @@ void MinimiseWithLowerSolver(const CalibrationOptions& options, const std::vecto
                                           transform, stop_requested);
     for (const auto& stage : report->stages) report->evaluations += stage.evaluations;
   }
+}
+
+void CorrectMotionAtAnswer(const CalibrationOptions& options, const std::vector<PairCost*>& pairs,
+                           const Eigen::Isometry3d& T_base_lidar) {
+  if (!options.motion_correction) return;
+  std::vector<Eigen::Isometry3d> T_camera_lidar;
+  for (PairCost* pair : pairs) {
+    T_camera_lidar.push_back(pair->Camera().T_base_camera.inverse() * T_base_lidar);
+    pair->RefreshVisibility(T_camera_lidar.back());
+  }
+  EstimateMotionCorrections(pairs, T_camera_lidar, options.motion);
+  for (std::size_t p = 0; p < pairs.size(); ++p) pairs[p]->RefreshVisibility(T_camera_lidar[p]);
 }
 
 void PreparePairForStage(PairCost& pair, const OptimisationStage& stage, const Eigen::Isometry3d& T_camera_lidar) {
@@ -533,6 +557,31 @@ CalibrationOutcome Calibrate(const CalibrationInput& input, const CalibrationOpt
       terminations.push_back(report.problem + ": " + brief);
       outcome.optimisations.push_back(report);
     };
+    // Drift correction of the swathes before a stage (options.motion_correction):
+    // the pairs given share each frame's correction.
+    const auto correct_motion = [&](const std::vector<PairCost*>& pairs, const OptimisationStage& stage,
+                                    const std::vector<Eigen::Isometry3d>& T_camera_lidar_now) {
+      if (!options.motion_correction) return;
+      // prepare is called with the elements of options.stages (MinimiseWithLowerSolver below).
+      const std::ptrdiff_t stage_index = &stage - options.stages.data();
+      const bool in_schedule = stage_index >= 0 && stage_index < static_cast<std::ptrdiff_t>(options.stages.size());
+      if (in_schedule && stage_index < options.motion_correction_first_stage) return;
+      const MotionCorrectionSummary summary = EstimateMotionCorrections(pairs, T_camera_lidar_now, options.motion);
+      // The visibility follows the re-posed scans.
+      for (std::size_t p = 0; p < pairs.size(); ++p) pairs[p]->RefreshVisibility(T_camera_lidar_now[p]);
+      double max_scale = 0.0, max_turn = 0.0, max_roll = 0.0;
+      for (const SwatheMotionCorrection& c : summary.corrections) {
+        max_scale = std::max(max_scale, std::abs(c.scale));
+        max_turn = std::max(max_turn, std::hypot(c.turn_a_rad_per_m, c.turn_b_rad_per_m));
+        max_roll = std::max(max_roll, std::abs(c.roll_rad_per_m));
+      }
+      std::string names;
+      for (const PairCost* pair : pairs) names += (names.empty() ? "" : ", ") + pair->Camera().name + "/" + lidar.name;
+      say("motion correction (" + names + "): " + std::to_string(summary.frames) + " frames, cost " +
+          FormatNumber(summary.cost_before) + " -> " + FormatNumber(summary.cost_after) + ", largest scale " +
+          FormatNumber(100.0 * max_scale) + " %, turn " + FormatNumber(DegreesFromRadians(max_turn)) +
+          " deg/m, roll " + FormatNumber(DegreesFromRadians(max_roll)) + " deg/m");
+    };
     if (options.scheme == CalibrationScheme::kJoint) {
       std::vector<const PairCost*> pairs;
       for (const auto& pair : problem.pairs) pairs.push_back(pair.get());
@@ -549,7 +598,14 @@ CalibrationOutcome Calibrate(const CalibrationInput& input, const CalibrationOpt
                                              gradient);
           },
           [&](const OptimisationStage& stage, const Eigen::Isometry3d& T) {
-            for (auto& pair : problem.pairs) PreparePairForStage(*pair, stage, pair->Camera().T_base_camera.inverse() * T);
+            std::vector<PairCost*> stage_pairs;
+            std::vector<Eigen::Isometry3d> stage_T_camera_lidar;
+            for (auto& pair : problem.pairs) {
+              stage_pairs.push_back(pair.get());
+              stage_T_camera_lidar.push_back(pair->Camera().T_base_camera.inverse() * T);
+              PreparePairForStage(*pair, stage, stage_T_camera_lidar.back());
+            }
+            correct_motion(stage_pairs, stage, stage_T_camera_lidar);
           },
           &T_base_lidar);
       for (std::size_t p = 0; p < problem.pairs.size(); ++p) {
@@ -576,7 +632,10 @@ CalibrationOutcome Calibrate(const CalibrationInput& input, const CalibrationOpt
               if (gradient == nullptr) return pair.Evaluate(T);
               return pair.EvaluateWithGradient(T, nelder_mead.transform_update, nelder_mead.pivot_source, gradient);
             },
-            [&](const OptimisationStage& stage, const Eigen::Isometry3d& T) { PreparePairForStage(pair, stage, T); },
+            [&](const OptimisationStage& stage, const Eigen::Isometry3d& T) {
+              PreparePairForStage(pair, stage, T);
+              correct_motion({&pair}, stage, {T});
+            },
             &T_camera_lidar[p]);
         solved[p] = true;
       }

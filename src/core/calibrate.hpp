@@ -107,6 +107,14 @@ struct CalibrationOptions {
   int thin_max_points_per_cell = 0;
   int thin_cell_px = 4;
   double thin_margin_px = 128.0;
+  // Per-frame odometry drift correction (once, joint): before each stage from
+  // motion_correction_first_stage on (0 = the first), every camera frame's
+  // swathe gets the scale and pitch and heading rates that minimise its own
+  // cost at the current estimate (PairCost::EstimateMotionCorrections), held
+  // during the stage. For long swathes from drifting odometry.
+  bool motion_correction = false;
+  int motion_correction_first_stage = 1;
+  MotionCorrectionOptions motion;
 
   bool IsValid(std::string* why = nullptr) const;
 };
@@ -226,6 +234,14 @@ PairReport MakePairReport(const PairCost& pair, const Eigen::Isometry3d& T_initi
 // CalibrationOptions::pivot_at_observed_centroid.
 std::optional<Eigen::Vector3d> ObservedCentroid(const std::vector<const PairCost*>& pairs,
                                                 const Eigen::Isometry3d& T_base_lidar);
+
+// For pair costs built afresh after a calibration (uncertainty, basin check,
+// report): with options.motion_correction, refreshes each pair's visibility at
+// the answer T_base_lidar and estimates the frames' drift corrections there
+// (shared across the pairs, EstimateMotionCorrections), so that they score the
+// corrected swathes the calibration ended on; nothing without it.
+void CorrectMotionAtAnswer(const CalibrationOptions& options, const std::vector<PairCost*>& pairs,
+                           const Eigen::Isometry3d& T_base_lidar);
 
 // Prepares a pair for a stage: blur and visibility at T_camera_lidar.
 void PreparePairForStage(PairCost& pair, const OptimisationStage& stage, const Eigen::Isometry3d& T_camera_lidar);

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <map>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -17,6 +18,23 @@ bool PairCostOptions::IsValid(std::string* why) const {
     if (why != nullptr) *why = "min_points_per_scene must be at least 1";
     return false;
   }
+  return true;
+}
+
+bool MotionCorrectionOptions::IsValid(std::string* why) const {
+  const auto fail = [&](const char* message) {
+    if (why != nullptr) *why = message;
+    return false;
+  };
+  if (!(max_scale > 0.0 && max_scale < 0.5)) return fail("motion correction: max_scale must be in (0, 0.5)");
+  if (!(max_rate_rad_per_m > 0.0 && max_rate_rad_per_m < 0.1))
+    return fail("motion correction: max_rate_rad_per_m must be in (0, 0.1)");
+  if (!(initial_step_scale > 0.0 && initial_step_scale <= max_scale))
+    return fail("motion correction: initial_step_scale must be in (0, max_scale]");
+  if (!(initial_step_rate_rad_per_m > 0.0 && initial_step_rate_rad_per_m <= max_rate_rad_per_m))
+    return fail("motion correction: initial_step_rate_rad_per_m must be in (0, max_rate_rad_per_m]");
+  if (max_iterations < 1) return fail("motion correction: max_iterations must be at least 1");
+  if (!scale && !turn && !roll) return fail("motion correction: no term to estimate");
   return true;
 }
 
@@ -169,6 +187,98 @@ std::vector<SceneEvaluation> PairCost::EvaluateScenes(const Eigen::Isometry3d& T
     evaluations[s].cost = SceneCost(s, T_camera_lidar, &evaluations[s].projected_points);
   });
   return evaluations;
+}
+
+MotionCorrectionSummary EstimateMotionCorrections(const std::vector<PairCost*>& pairs,
+                                                  const std::vector<Eigen::Isometry3d>& T_camera_lidar,
+                                                  const MotionCorrectionOptions& options) {
+  struct Member {
+    PairCost* pair;
+    std::size_t scene;
+    const Eigen::Isometry3d* T_camera_lidar;
+  };
+  // The used scenes of each image time, over the pairs.
+  std::map<TimeUs, std::vector<Member>> frames;
+  for (std::size_t p = 0; p < pairs.size() && p < T_camera_lidar.size(); ++p) {
+    for (const std::size_t s : pairs[p]->used_)
+      frames[pairs[p]->scenes_[s].ImageTime()].push_back({pairs[p], s, &T_camera_lidar[p]});
+  }
+  std::vector<const std::vector<Member>*> groups;
+  for (const auto& [time, members] : frames) groups.push_back(&members);
+  const auto correction_of = [](const Member& member) -> SwatheMotionCorrection {
+    return member.pair->scenes_[member.scene].MotionCorrection();
+  };
+  const auto apply = [](const std::vector<Member>& members, const SwatheMotionCorrection& correction) {
+    for (const Member& member : members) member.pair->scenes_[member.scene].SetMotionCorrection(correction);
+  };
+
+  // The free terms, in the order scale, turn a, turn b, roll.
+  std::vector<int> free_terms;
+  free_terms.reserve(4);
+  for (int term = 0; term < 4; ++term) {
+    const bool free = term == 0 ? options.scale : term == 3 ? options.roll : options.turn;
+    if (free) free_terms.push_back(term);
+  }
+  const double rate = options.max_rate_rad_per_m, rate_step = options.initial_step_rate_rad_per_m;
+  const Eigen::Vector4d bounds(options.max_scale, rate, rate, rate);
+  const Eigen::Vector4d term_steps(options.initial_step_scale, rate_step, rate_step, rate_step);
+  const auto n = static_cast<Eigen::Index>(free_terms.size());
+  Eigen::VectorXd steps(n), free_bounds(n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    steps[i] = term_steps[free_terms[static_cast<std::size_t>(i)]];
+    free_bounds[i] = bounds[free_terms[static_cast<std::size_t>(i)]];
+  }
+  const auto from_vector = [&](const Eigen::VectorXd& x) {
+    Eigen::Vector4d terms = Eigen::Vector4d::Zero();
+    for (std::size_t i = 0; i < free_terms.size(); ++i) terms[free_terms[i]] = x[static_cast<Eigen::Index>(i)];
+    return SwatheMotionCorrection{terms[0], terms[1], terms[2], terms[3]};
+  };
+
+  struct FrameOutcome {
+    int evaluations = 0;
+    double before = 0.0, after = 0.0;
+  };
+  std::vector<FrameOutcome> outcomes(groups.size());
+  tbb::parallel_for(std::size_t{0}, groups.size(), [&](std::size_t g) {
+    const std::vector<Member>& members = *groups[g];
+    const auto frame_cost = [&]() {
+      double sum = 0.0;
+      for (const Member& member : members) sum += member.pair->SceneCost(member.scene, *member.T_camera_lidar, nullptr);
+      return sum / static_cast<double>(members.size());
+    };
+    const SwatheMotionCorrection start = correction_of(members.front());
+    const Eigen::Vector4d start_terms(start.scale, start.turn_a_rad_per_m, start.turn_b_rad_per_m,
+                                      start.roll_rad_per_m);
+    Eigen::VectorXd x(n);
+    for (Eigen::Index i = 0; i < n; ++i) x[i] = start_terms[free_terms[static_cast<std::size_t>(i)]];
+    NelderMeadOptions nelder_mead;
+    nelder_mead.max_iterations = options.max_iterations;
+    const auto cost = [&](const Eigen::VectorXd& candidate) {
+      if ((candidate.array().abs() > free_bounds.array()).any()) {
+        return std::numeric_limits<double>::infinity();  // outside the bounds: worse than any cost
+      }
+      apply(members, from_vector(candidate));
+      return frame_cost();
+    };
+    const NelderMeadSummary summary = MinimiseNelderMead(cost, steps, steps * 0.01, nelder_mead, &x);
+    apply(members, from_vector(x));
+    outcomes[g] = {summary.evaluations, summary.initial_value, summary.final_value};
+  });
+
+  MotionCorrectionSummary summary;
+  for (const FrameOutcome& outcome : outcomes) {
+    ++summary.frames;
+    summary.evaluations += outcome.evaluations;
+    summary.cost_before += outcome.before;
+    summary.cost_after += outcome.after;
+  }
+  if (summary.frames > 0) {
+    summary.cost_before /= summary.frames;
+    summary.cost_after /= summary.frames;
+  }
+  for (const PairCost* pair : pairs)
+    for (const SceneSwathe& scene : pair->scenes_) summary.corrections.push_back(scene.MotionCorrection());
+  return summary;
 }
 
 double EvaluateJoint(const std::vector<const PairCost*>& pairs, const Eigen::Isometry3d& T_base_lidar) {

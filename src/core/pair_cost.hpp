@@ -38,6 +38,32 @@ struct PairCostOptions {
   bool IsValid(std::string* why = nullptr) const;
 };
 
+// Per-frame odometry drift correction (SwatheMotionCorrection), estimated by
+// PairCost::EstimateMotionCorrections: for each camera frame, the terms that
+// minimise that frame's own cost at a fixed T_camera_lidar, within the bounds
+// (Nelder-Mead, from the frame's previous correction).
+struct MotionCorrectionOptions {
+  // Which terms are estimated (the others stay 0); at least one.
+  bool scale = false;
+  bool turn = true;   // both rates across the travel (heading and pitch, whichever way the base is turned)
+  bool roll = false;  // the rate about the travel
+  double max_scale = 0.02;                         // |scale| bound (fraction)
+  double max_rate_rad_per_m = 8.7266e-4;           // bound on each rate (0.05 deg/m)
+  double initial_step_scale = 0.004;               // simplex steps
+  double initial_step_rate_rad_per_m = 1.7453e-4;  // 0.01 deg/m
+  int max_iterations = 60;
+
+  bool IsValid(std::string* why = nullptr) const;
+};
+
+struct MotionCorrectionSummary {
+  int frames = 0;             // camera frames corrected (with a used scene)
+  int evaluations = 0;        // scene-cost evaluations, all frames
+  double cost_before = 0.0;   // mean over the frames of their cost before and after
+  double cost_after = 0.0;
+  std::vector<SwatheMotionCorrection> corrections;  // per scene: the pairs' Scenes() one after the other
+};
+
 // Why a scene is left out of the cost (kUsed when it is not).
 enum class SceneState { kUsed, kTooFewPoints, kConstantImage, kConstantReflectance };
 const char* SceneStateName(SceneState state);
@@ -104,7 +130,21 @@ class PairCost {
   std::vector<SceneState> states_;
   std::vector<std::size_t> projected_at_refresh_;
   std::vector<std::size_t> used_;  // indices of used scenes
+
+  friend MotionCorrectionSummary EstimateMotionCorrections(const std::vector<PairCost*>& pairs,
+                                                           const std::vector<Eigen::Isometry3d>& T_camera_lidar,
+                                                           const MotionCorrectionOptions& options);
 };
+
+// Estimates each frame's SwatheMotionCorrection with every pair at its
+// T_camera_lidar (one per pair) and applies it to their swathes: the used
+// scenes with the same image time, over all pairs (the cameras of a rig that
+// fire together, a frame's range bands), share one correction and minimise
+// their mean cost. Frames are independent (in parallel). Uses the scene states
+// of each pair's last refresh. Between optimiser runs only.
+MotionCorrectionSummary EstimateMotionCorrections(const std::vector<PairCost*>& pairs,
+                                                  const std::vector<Eigen::Isometry3d>& T_camera_lidar,
+                                                  const MotionCorrectionOptions& options);
 
 // The `joint` cost of one lidar: the mean over cameras of each pair's cost at
 // T_camera_lidar = T_base_camera^-1 * T_base_lidar (the known camera

@@ -35,6 +35,41 @@
 
 namespace scenecal {
 
+// A correction of the odometry inside one swathe, for drift the trajectory
+// carries over the swathe's length (a nuisance estimated per camera frame,
+// see PairCost::EstimateMotionCorrections). Along the chain of scan poses,
+// from the image time outwards, every step of the trajectory is corrected:
+// its length scaled by (1 + scale), the base turned by rate * length about
+// the travel frame's axes, the step's direction by half that turn. The
+// travel frame (in base k; the base's own axes may point anywhere, e.g. a
+// camera's) has `forward` along the swathe's mean direction of travel and two
+// axes across it: MotionAxes. A constant scale error and constant turn rates
+// over the swathe (how visual odometry or an INS drifts: heading and pitch
+// rates) are undone exactly to first order. Zero = the trajectory as given.
+struct SwatheMotionCorrection {
+  double scale = 0.0;                  // fraction of each step's length (e.g. 0.005 = 0.5 %)
+  double turn_a_rad_per_m = 0.0;       // about the first axis across the travel, per metre travelled
+  double turn_b_rad_per_m = 0.0;       // about the second axis across the travel
+  double roll_rad_per_m = 0.0;         // about the direction of travel
+
+  bool IsZero() const {
+    return scale == 0.0 && turn_a_rad_per_m == 0.0 && turn_b_rad_per_m == 0.0 && roll_rad_per_m == 0.0;
+  }
+};
+
+// The travel frame of a swathe (columns: across a, across b, forward; base k
+// axes): forward along the chord from the first scan's position to the
+// last's (time order); across a is the base axis most nearly perpendicular to
+// it, made perpendicular; across b = forward x across a. Identity when the
+// swathe does not move (a static scene).
+Eigen::Matrix3d MotionAxes(const std::vector<Eigen::Isometry3d>& T_basek_basej);
+
+// The poses T_basek_basej (base at scan time j -> base at image time k, scans
+// in time order, image at time image_t_us) after `correction` (see above).
+std::vector<Eigen::Isometry3d> CorrectSwatheMotion(const std::vector<TimeUs>& scan_t_us,
+                                                   const std::vector<Eigen::Isometry3d>& T_basek_basej,
+                                                   TimeUs image_t_us, const SwatheMotionCorrection& correction);
+
 struct SwatheOptions {
   double min_range_m = 1.0;    // lidar points nearer than this (lidar frame) are dropped (vehicle body, noise)
   double max_range_m = 100.0;  // and farther than this
@@ -191,6 +226,12 @@ class SceneSwathe {
   // image. For coarse-to-fine smoothing between optimiser runs, never inside one.
   void SetImageBlur(double sigma_px);
 
+  // Re-poses the scans with the trajectory corrected by `correction`
+  // (CorrectSwatheMotion; zero restores the poses as built). Not thread-safe;
+  // the visibility mask is kept (refresh it when the estimate has moved).
+  void SetMotionCorrection(const SwatheMotionCorrection& correction);
+  const SwatheMotionCorrection& MotionCorrection() const { return motion_correction_; }
+
   const cv::Mat& Image() const { return image_; }
 
  private:
@@ -217,6 +258,11 @@ class SceneSwathe {
   std::vector<std::uint8_t> visible_;
   std::vector<std::size_t> scan_begin_;  // points of scan i: [scan_begin_[i], scan_begin_[i + 1])
   std::vector<Eigen::Isometry3d> T_camerak_cameraj_;
+  // As built from the trajectory, for SetMotionCorrection (one per scan, as T_camerak_cameraj_).
+  std::vector<TimeUs> scan_t_us_;
+  std::vector<Eigen::Isometry3d> T_basek_basej_;
+  Eigen::Isometry3d T_base_camera_ = Eigen::Isometry3d::Identity();
+  SwatheMotionCorrection motion_correction_;
 };
 
 namespace swathe_detail {

@@ -226,13 +226,16 @@ std::vector<LidarUncertainty> EstimateCalibrationUncertainty(const CalibrationIn
     // One lidar at a time: its swathes are released before the next is built.
     std::vector<std::unique_ptr<PairCost>> pairs;
     std::vector<const PairCost*> views;
+    std::vector<PairCost*> mutable_views;
     for (const CameraInfo& camera : input.rig.cameras) {
       auto pair = std::make_unique<PairCost>(BuildPairCost(input, camera, lidar.lidar, smooth));
       if (pair->SceneCount() == 0) continue;
       pair->RefreshVisibility(camera.T_base_camera.inverse() * lidar.T_base_lidar);
       views.push_back(pair.get());
+      mutable_views.push_back(pair.get());
       pairs.push_back(std::move(pair));
     }
+    CorrectMotionAtAnswer(smooth, mutable_views, lidar.T_base_lidar);
     estimates.push_back(EstimateLidarUncertainty(views, lidar.T_base_lidar, uncertainty_options));
   }
   return estimates;
