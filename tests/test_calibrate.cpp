@@ -293,6 +293,18 @@ TEST_F(CalibrateOnSimulation, CliExitCodes) {
                    &exg_text),
             2);
   EXPECT_NE(exg_text.find("a colour image for the excess-green channel"), std::string::npos) << exg_text;
+  // The drift correction: an unknown term, and the alt scheme (the default), are refused.
+  std::string motion_text;
+  EXPECT_EQ(RunCli("calibrate " + DatasetPath().string() + " --output " + output.string() +
+                       " --motion-correction turn,pitch",
+                   &motion_text),
+            2);
+  EXPECT_NE(motion_text.find("pitch not in {turn,scale,roll}"), std::string::npos) << motion_text;
+  EXPECT_EQ(RunCli("calibrate " + DatasetPath().string() + " --output " + output.string() +
+                       " --scenes 4 --motion-correction turn",
+                   &motion_text),
+            2);
+  EXPECT_NE(motion_text.find("for the once and joint schemes"), std::string::npos) << motion_text;
   // Constant images: a copy of the dataset with every image flat grey; exit 1, no file.
   const fs::path flat = root_ / "flat";
   fs::copy(DatasetPath(), flat, fs::copy_options::recursive);
