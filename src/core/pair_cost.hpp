@@ -39,7 +39,7 @@ struct PairCostOptions {
 };
 
 // Per-frame odometry drift correction (SwatheMotionCorrection), estimated by
-// PairCost::EstimateMotionCorrections: for each camera frame, the terms that
+// EstimateMotionCorrections (below): for each camera frame, the terms that
 // minimise that frame's own cost at a fixed T_camera_lidar, within the bounds
 // (Nelder-Mead, from the frame's previous correction).
 struct MotionCorrectionOptions {
@@ -57,9 +57,9 @@ struct MotionCorrectionOptions {
 };
 
 struct MotionCorrectionSummary {
-  int frames = 0;             // camera frames corrected (with a used scene)
-  int evaluations = 0;        // scene-cost evaluations, all frames
-  double cost_before = 0.0;   // mean over the frames of their cost before and after
+  int frames = 0;            // camera frames corrected (with a used scene)
+  int evaluations = 0;       // frame-cost evaluations, all frames
+  double cost_before = 0.0;  // mean over the frames of their cost before and after
   double cost_after = 0.0;
   std::vector<SwatheMotionCorrection> corrections;  // per scene: the pairs' Scenes() one after the other
 };
