@@ -228,8 +228,9 @@ MotionCorrectionSummary EstimateMotionCorrections(const std::vector<PairCost*>& 
     steps[i] = term_steps[free_terms[static_cast<std::size_t>(i)]];
     free_bounds[i] = bounds[free_terms[static_cast<std::size_t>(i)]];
   }
-  const auto from_vector = [&](const Eigen::VectorXd& x) {
-    Eigen::Vector4d terms = Eigen::Vector4d::Zero();
+  // The free terms from x, the others as they were (base: the frame's correction before).
+  const auto from_vector = [&](const Eigen::VectorXd& x, const Eigen::Vector4d& base) {
+    Eigen::Vector4d terms = base;
     for (std::size_t i = 0; i < free_terms.size(); ++i) terms[free_terms[i]] = x[static_cast<Eigen::Index>(i)];
     return SwatheMotionCorrection{terms[0], terms[1], terms[2], terms[3]};
   };
@@ -257,11 +258,11 @@ MotionCorrectionSummary EstimateMotionCorrections(const std::vector<PairCost*>& 
       if ((candidate.array().abs() > free_bounds.array()).any()) {
         return std::numeric_limits<double>::infinity();  // outside the bounds: worse than any cost
       }
-      apply(members, from_vector(candidate));
+      apply(members, from_vector(candidate, start_terms));
       return frame_cost();
     };
     const NelderMeadSummary summary = MinimiseNelderMead(cost, steps, steps * 0.01, nelder_mead, &x);
-    apply(members, from_vector(x));
+    apply(members, from_vector(x, start_terms));
     outcomes[g] = {summary.evaluations, summary.initial_value, summary.final_value};
   });
 

@@ -43,7 +43,7 @@ struct PairCostOptions {
 // minimise that frame's own cost at a fixed T_camera_lidar, within the bounds
 // (Nelder-Mead, from the frame's previous correction).
 struct MotionCorrectionOptions {
-  // Which terms are estimated (the others stay 0); at least one.
+  // Which terms are estimated (the others keep the frame's current values: 0 at first); at least one.
   bool scale = false;
   bool turn = true;   // both rates across the travel (heading and pitch, whichever way the base is turned)
   bool roll = false;  // the rate about the travel
