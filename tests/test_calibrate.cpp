@@ -565,6 +565,44 @@ TEST_F(CalibrateOnSimulation, MotionCorrectionFindsADriftPutIntoTheSwathes) {
   EXPECT_LT(relative, 0.35);
 }
 
+// The CLI records the drift correction: the setting, and each frame's
+// correction per pair (only the terms asked for, within the bounds).
+TEST_F(CalibrateOnSimulation, MotionCorrectionCliWritesEachFramesCorrection) {
+  const fs::path output = root_ / "motion.yaml";
+  std::string text;
+  ASSERT_EQ(RunCli("calibrate " + DatasetPath().string() + " --output " + output.string() +
+                       " --scheme joint --scenes 4 --motion-correction turn --motion-max-rate 0.04"
+                       " --no-uncertainty --no-basin-check",
+                   &text),
+            0)
+      << text;
+  EXPECT_NE(text.find("motion correction (left/lms_rear, right/lms_rear)"), std::string::npos) << text;
+  const YAML::Node root = YAML::LoadFile(output.string());
+  EXPECT_EQ(root["settings"]["motion_correction"].as<std::string>().rfind("per frame from stage 1: turn", 0), 0u);
+  const YAML::Node frames = root["motion_correction"];
+  ASSERT_TRUE(frames.IsSequence());
+  std::map<std::string, int> per_camera;
+  std::map<std::string, std::map<long long, double>> turn_a;  // by camera, then image time
+  int turned = 0;
+  for (const YAML::Node& frame : frames) {
+    ++per_camera[frame["camera"].as<std::string>()];
+    turn_a[frame["camera"].as<std::string>()][frame["image_t_us"].as<long long>()] =
+        frame["turn_a_deg_per_m"].as<double>();
+    EXPECT_EQ(frame["lidar"].as<std::string>(), "lms_rear");
+    EXPECT_EQ(frame["scale_percent"].as<double>(), 0.0);
+    EXPECT_EQ(frame["roll_deg_per_m"].as<double>(), 0.0);
+    const double a = frame["turn_a_deg_per_m"].as<double>(), b = frame["turn_b_deg_per_m"].as<double>();
+    EXPECT_LE(std::abs(a), 0.04 + 1e-12);
+    EXPECT_LE(std::abs(b), 0.04 + 1e-12);
+    turned += (a != 0.0 || b != 0.0) ? 1 : 0;
+  }
+  // The cameras fire together and, in the joint scheme, share each frame's correction.
+  EXPECT_EQ(turn_a["left"], turn_a["right"]);
+  EXPECT_GE(per_camera["left"], 2);
+  EXPECT_LE(per_camera["left"], 4);
+  EXPECT_GT(turned, 0);
+}
+
 // The setting README recommends for a rear push-broom lidar (30 m swathes, near
 // and far returns scored apart, thinning, L-BFGS on the B-spline cost, a fixed
 // point set 18 px inside these 480 px images: README's 48 px at 1280), through

@@ -217,6 +217,22 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
   }
   result.timings_s["total"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   for (const std::string& warning : result.warnings) spdlog::warn("{}", warning);
+  if (!outcome.motion_corrections.empty()) {
+    // Each frame's drift correction: what the odometry did over its swathe, as the images saw it.
+    YAML::Node frames(YAML::NodeType::Sequence);
+    for (const FrameMotionCorrection& frame : outcome.motion_corrections) {
+      YAML::Node entry;
+      entry["camera"] = frame.camera;
+      entry["lidar"] = frame.lidar;
+      entry["image_t_us"] = frame.image_t_us;
+      entry["scale_percent"] = 100.0 * frame.correction.scale;
+      entry["turn_a_deg_per_m"] = DegreesFromRadians(frame.correction.turn_a_rad_per_m);
+      entry["turn_b_deg_per_m"] = DegreesFromRadians(frame.correction.turn_b_rad_per_m);
+      entry["roll_deg_per_m"] = DegreesFromRadians(frame.correction.roll_rad_per_m);
+      frames.push_back(entry);
+    }
+    extra["motion_correction"] = frames;
+  }
   if (alternating_run) {
     // The per-alternation history (lower and upper solutions per pair) for the paper's Fig. 4 and 6.
     extra["history"] = HistoryYaml(alternating_run->details, alternating_run->problem);

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <set>
 #include <sstream>
 
 #include <fmt/format.h>
@@ -652,6 +653,15 @@ CalibrationOutcome Calibrate(const CalibrationInput& input, const CalibrationOpt
       }
       pair.SetImageBlur(0.0);
       pair.RefreshVisibility(T_camera_lidar[p]);
+      if (options.motion_correction) {
+        // One entry per frame (a frame's range bands share its correction).
+        std::set<TimeUs> recorded;
+        for (const SceneSwathe& scene : pair.Scenes()) {
+          if (recorded.insert(scene.ImageTime()).second)
+            outcome.motion_corrections.push_back(
+                {pair.Camera().name, lidar.name, scene.ImageTime(), scene.MotionCorrection()});
+        }
+      }
       PairReport report = MakePairReport(pair, T_initial, initial_costs[p]);
       report.final_cost = pair.Evaluate(T_camera_lidar[p]);
       outcome.pairs.push_back(report);

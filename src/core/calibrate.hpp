@@ -155,12 +155,21 @@ struct OptimisationReport {
 
 enum class CalibrationStatus { kSuccess, kCannotCalibrate, kInvalidOptions };
 
+// One camera frame's drift correction at the end (options.motion_correction).
+struct FrameMotionCorrection {
+  std::string camera;
+  std::string lidar;
+  TimeUs image_t_us = 0;
+  SwatheMotionCorrection correction;
+};
+
 struct CalibrationOutcome {
   CalibrationStatus status = CalibrationStatus::kSuccess;
   std::string why;  // for a status other than kSuccess
   CalibrationResult result;
   std::vector<PairReport> pairs;
   std::vector<OptimisationReport> optimisations;
+  std::vector<FrameMotionCorrection> motion_corrections;  // per pair and frame, in time order
 };
 
 // Progress messages (one line each) for the caller to log.
