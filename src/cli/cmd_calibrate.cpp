@@ -204,7 +204,13 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
                     args.perturb_from_truth ? "truth" : "rig.yaml");
   }
   YAML::Node extra(YAML::NodeType::Map);
-  if (!args.no_uncertainty) extra["uncertainty"] = ReportUncertainty(input, options, &result);
+  if (!args.no_uncertainty) {
+    if (options.motion_correction) {
+      spdlog::info("uncertainty: the frames' drift corrections are held as estimated at the answer; their own "
+                   "freedom is not in it (with --motion-correction the error can be several times larger)");
+    }
+    extra["uncertainty"] = ReportUncertainty(input, options, &result);
+  }
   if (!args.no_basin_check) {
     const double elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     if (args.time_budget_s > 0.0 && elapsed_s >= args.time_budget_s) {
