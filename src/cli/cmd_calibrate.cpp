@@ -157,7 +157,7 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
     // Long swathes collect the odometry's drift (BENCHMARK.md, "Seventh session").
     spdlog::info("push-broom lidar with {} m swathes: if the trajectory is visual odometry (drifting ~0.01 deg/m), "
                  "--motion-correction turn corrects each frame's swathe (on two of three simulated drives 0.68-0.85 deg -> "
-                 "0.12-0.13 deg); with exact odometry it costs 0.25-0.4 deg",
+                 "0.12-0.13 deg); with exact odometry it costs 0.1-0.4 deg",
                  options.scenes.swathe_length_m);
   }
   const bool lbfgs = options.lower_solver == LowerSolver::kLbfgs;
