@@ -564,9 +564,9 @@ CalibrationOutcome Calibrate(const CalibrationInput& input, const CalibrationOpt
                                     const std::vector<Eigen::Isometry3d>& T_camera_lidar_now) {
       if (!options.motion_correction) return;
       // prepare is called with the elements of options.stages (MinimiseWithLowerSolver below).
-      const std::ptrdiff_t stage_index = &stage - options.stages.data();
-      const bool in_schedule = stage_index >= 0 && stage_index < static_cast<std::ptrdiff_t>(options.stages.size());
-      if (in_schedule && stage_index < options.motion_correction_first_stage) return;
+      const auto in_schedule = std::find_if(options.stages.begin(), options.stages.end(),
+                                            [&](const OptimisationStage& s) { return &s == &stage; });
+      if (in_schedule - options.stages.begin() < options.motion_correction_first_stage) return;
       const MotionCorrectionSummary summary = EstimateMotionCorrections(pairs, T_camera_lidar_now, options.motion);
       // The visibility follows the re-posed scans.
       for (std::size_t p = 0; p < pairs.size(); ++p) pairs[p]->RefreshVisibility(T_camera_lidar_now[p]);

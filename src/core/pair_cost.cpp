@@ -205,9 +205,6 @@ MotionCorrectionSummary EstimateMotionCorrections(const std::vector<PairCost*>& 
   }
   std::vector<const std::vector<Member>*> groups;
   for (const auto& [time, members] : frames) groups.push_back(&members);
-  const auto correction_of = [](const Member& member) -> SwatheMotionCorrection {
-    return member.pair->scenes_[member.scene].MotionCorrection();
-  };
   const auto apply = [](const std::vector<Member>& members, const SwatheMotionCorrection& correction) {
     for (const Member& member : members) member.pair->scenes_[member.scene].SetMotionCorrection(correction);
   };
@@ -247,7 +244,7 @@ MotionCorrectionSummary EstimateMotionCorrections(const std::vector<PairCost*>& 
       for (const Member& member : members) sum += member.pair->SceneCost(member.scene, *member.T_camera_lidar, nullptr);
       return sum / static_cast<double>(members.size());
     };
-    const SwatheMotionCorrection start = correction_of(members.front());
+    const SwatheMotionCorrection start = members.front().pair->scenes_[members.front().scene].MotionCorrection();
     const Eigen::Vector4d start_terms(start.scale, start.turn_a_rad_per_m, start.turn_b_rad_per_m,
                                       start.roll_rad_per_m);
     Eigen::VectorXd x(n);

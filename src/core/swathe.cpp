@@ -107,7 +107,6 @@ SceneSwathe SceneSwathe::Build(const Scene& scene, const CameraInfo& camera, con
   // Half a pixel of margin: bilinear sampling needs the right and lower neighbours.
   swathe.projection_ = MakeProjectionParams(camera.model, 0.5, options.min_depth_m);
 
-  const Eigen::Isometry3d T_camera_base = camera.T_base_camera.inverse();
   swathe.T_base_camera_ = camera.T_base_camera;
   std::vector<float> reflectance;
   const double min_range2 = options.min_range_m * options.min_range_m;
@@ -124,10 +123,10 @@ SceneSwathe SceneSwathe::Build(const Scene& scene, const CameraInfo& camera, con
       reflectance.push_back(p.reflectance);
     }
     swathe.scan_begin_.push_back(swathe.x_.size());
-    swathe.T_camerak_cameraj_.push_back(T_camera_base * scene.scans[s].T_basek_basej * camera.T_base_camera);
     swathe.scan_t_us_.push_back(scene.scans[s].t_us);
     swathe.T_basek_basej_.push_back(scene.scans[s].T_basek_basej);
   }
+  swathe.ComposeScanPoses(swathe.T_basek_basej_);
   const ValueNormaliser normaliser =
       ValueNormaliser::Fit(reflectance, normalisation.reflectance, normalisation.lower_percentile,
                            normalisation.upper_percentile);
@@ -225,13 +224,15 @@ std::vector<Eigen::Isometry3d> CorrectSwatheMotion(const std::vector<TimeUs>& sc
   return corrected;
 }
 
+void SceneSwathe::ComposeScanPoses(const std::vector<Eigen::Isometry3d>& T_basek_basej) {
+  const Eigen::Isometry3d T_camera_base = T_base_camera_.inverse();
+  T_camerak_cameraj_.clear();
+  for (const Eigen::Isometry3d& T : T_basek_basej) T_camerak_cameraj_.push_back(T_camera_base * T * T_base_camera_);
+}
+
 void SceneSwathe::SetMotionCorrection(const SwatheMotionCorrection& correction) {
   motion_correction_ = correction;
-  const Eigen::Isometry3d T_camera_base = T_base_camera_.inverse();
-  const std::vector<Eigen::Isometry3d> T_basek_basej =
-      CorrectSwatheMotion(scan_t_us_, T_basek_basej_, image_t_us_, correction);
-  for (std::size_t scan = 0; scan < T_camerak_cameraj_.size() && scan < T_basek_basej.size(); ++scan)
-    T_camerak_cameraj_[scan] = T_camera_base * T_basek_basej[scan] * T_base_camera_;
+  ComposeScanPoses(CorrectSwatheMotion(scan_t_us_, T_basek_basej_, image_t_us_, correction));
 }
 
 std::size_t SceneSwathe::ThinByImageDensity(const CameraModel& model, const Eigen::Isometry3d& T_camera_lidar,

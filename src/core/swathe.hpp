@@ -258,6 +258,9 @@ class SceneSwathe {
   std::vector<std::uint8_t> visible_;
   std::vector<std::size_t> scan_begin_;  // points of scan i: [scan_begin_[i], scan_begin_[i + 1])
   std::vector<Eigen::Isometry3d> T_camerak_cameraj_;
+  // T_camerak_cameraj_ = T_camera_base * T_basek_basej * T_base_camera, one per scan.
+  void ComposeScanPoses(const std::vector<Eigen::Isometry3d>& T_basek_basej);
+
   // As built from the trajectory, for SetMotionCorrection (one per scan, as T_camerak_cameraj_).
   std::vector<TimeUs> scan_t_us_;
   std::vector<Eigen::Isometry3d> T_basek_basej_;
