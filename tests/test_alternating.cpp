@@ -150,6 +150,45 @@ TEST(Alternating, DeterministicForTheSameInput) {
   EXPECT_EQ((a.T_base_lidar[0].matrix() - b.T_base_lidar[0].matrix()).cwiseAbs().maxCoeff(), 0.0);
 }
 
+// The coarse-to-fine stages' step scales reach each alternation's lower-level
+// tasks (before the penalty-sigma cap), and the batch hook sees every batch
+// whole before any of its tasks is solved.
+TEST(Alternating, StepScalesAndTheBatchHookReachTheLowerLevel) {
+  std::vector<std::vector<LowerLevelTask>> batches;
+  std::atomic<int> hooked_alternation{-1};
+  std::atomic<int> early_runs{0};  // lower levels prepared before their batch's hook ran
+  PairObjective left = Bowl(kT_base_lidar_true, 1.0, kWidth);
+  left.prepare = [&](const Eigen::Isometry3d&, int alternation) {
+    if (hooked_alternation.load() != alternation) ++early_runs;
+  };
+  ThreadLowerLevelBackend backend({left, Bowl(kT_base_right.inverse() * kT_base_lidar_true, 1.0, kWidth)},
+                                  [&](const std::vector<LowerLevelTask>& tasks) {
+                                    batches.push_back(tasks);
+                                    hooked_alternation = tasks.front().alternation;
+                                  });
+  AlternatingOptions options;
+  options.max_alternations = 3;
+  options.min_alternations = 3;
+  options.lower_step_scale = {1.0, 0.3};  // the third alternation falls back to 1
+  const AlternatingResult result = SolveAlternating(StereoProblem(Perturbed()), options, backend);
+  ASSERT_TRUE(result.success) << result.termination;
+  ASSERT_EQ(batches.size(), 3u);
+  EXPECT_EQ(early_runs.load(), 0);
+  for (std::size_t i = 0; i < batches.size(); ++i) {
+    ASSERT_EQ(batches[i].size(), 2u);
+    EXPECT_EQ(batches[i][0].alternation, static_cast<int>(i));
+    const double scale = i == 1 ? 0.3 : 1.0;
+    EXPECT_DOUBLE_EQ(batches[i][0].options.initial_step_translation_m, scale * options.lower.initial_step_translation_m);
+    EXPECT_DOUBLE_EQ(batches[i][1].gradient.initial_step_rotation_rad,
+                     scale * options.lower_gradient.initial_step_rotation_rad);
+  }
+  AlternatingOptions bad;
+  bad.lower_step_scale = {1.0, 0.0};
+  std::string why;
+  EXPECT_FALSE(bad.IsValid(&why));
+  EXPECT_NE(why.find("step scales"), std::string::npos) << why;
+}
+
 TEST(Alternating, RejectsInvalidInput) {
   AlternatingProblem problem = StereoProblem(Perturbed());
   problem.pairs.push_back({5, 0});

@@ -207,11 +207,10 @@ TEST_F(CalibrateOnSimulation, InvalidOptionsAreReported) {
   EXPECT_EQ(outcome.status, CalibrationStatus::kInvalidOptions);
   EXPECT_NE(outcome.why.find("stages"), std::string::npos);
 
-  CalibrationOptions motion_in_alt;
+  CalibrationOptions motion_in_alt;  // every scheme takes the drift correction
   motion_in_alt.scheme = CalibrationScheme::kAlt;
   motion_in_alt.motion_correction = true;
-  EXPECT_FALSE(motion_in_alt.IsValid(&why));
-  EXPECT_NE(why.find("once and joint"), std::string::npos) << why;
+  EXPECT_TRUE(motion_in_alt.IsValid(&why)) << why;
   CalibrationOptions motion_without_terms;
   motion_without_terms.motion_correction = true;
   motion_without_terms.motion.turn = false;
@@ -293,7 +292,7 @@ TEST_F(CalibrateOnSimulation, CliExitCodes) {
                    &exg_text),
             2);
   EXPECT_NE(exg_text.find("a colour image for the excess-green channel"), std::string::npos) << exg_text;
-  // The drift correction: an unknown term, and the alt scheme (the default), are refused.
+  // The drift correction: an unknown term, and a bound out of range, are refused.
   std::string motion_text;
   EXPECT_EQ(RunCli("calibrate " + DatasetPath().string() + " --output " + output.string() +
                        " --motion-correction turn,pitch",
@@ -301,10 +300,10 @@ TEST_F(CalibrateOnSimulation, CliExitCodes) {
             2);
   EXPECT_NE(motion_text.find("pitch not in {turn,scale,roll}"), std::string::npos) << motion_text;
   EXPECT_EQ(RunCli("calibrate " + DatasetPath().string() + " --output " + output.string() +
-                       " --scenes 4 --motion-correction turn",
+                       " --scenes 4 --motion-correction turn --motion-max-rate 5",
                    &motion_text),
             2);
-  EXPECT_NE(motion_text.find("for the once and joint schemes"), std::string::npos) << motion_text;
+  EXPECT_NE(motion_text.find("--motion-max-rate"), std::string::npos) << motion_text;
   // Constant images: a copy of the dataset with every image flat grey; exit 1, no file.
   const fs::path flat = root_ / "flat";
   fs::copy(DatasetPath(), flat, fs::copy_options::recursive);
@@ -566,17 +565,24 @@ TEST_F(CalibrateOnSimulation, MotionCorrectionFindsADriftPutIntoTheSwathes) {
 }
 
 // The CLI records the drift correction: the setting, and each frame's
-// correction per pair (only the terms asked for, within the bounds).
+// correction per pair (only the terms asked for, within the bounds); in the
+// joint scheme and in alt, whose lower levels share each frame's correction.
 TEST_F(CalibrateOnSimulation, MotionCorrectionCliWritesEachFramesCorrection) {
-  const fs::path output = root_ / "motion.yaml";
+ for (const std::string scheme : {"joint", "alt"}) {
+  SCOPED_TRACE(scheme);
+  const fs::path output = root_ / ("motion_" + scheme + ".yaml");
   std::string text;
-  ASSERT_EQ(RunCli("calibrate " + DatasetPath().string() + " --output " + output.string() +
-                       " --scheme joint --scenes 4 --motion-correction turn --motion-max-rate 0.04"
-                       " --no-uncertainty --no-basin-check",
+  ASSERT_EQ(RunCli("calibrate " + DatasetPath().string() + " --output " + output.string() + " --scheme " + scheme +
+                       " --scenes 4 --motion-correction turn --motion-max-rate 0.04"
+                       " --no-uncertainty --no-basin-check" + (scheme == "alt" ? " --alternations 6" : ""),
                    &text),
             0)
       << text;
-  EXPECT_NE(text.find("motion correction (left/lms_rear, right/lms_rear)"), std::string::npos) << text;
+  // alt: the stages are spread over the alternations; stage 1 starts at the third of six.
+  EXPECT_NE(text.find(scheme == "joint" ? "motion correction (left/lms_rear, right/lms_rear)"
+                                        : "motion correction (alternation 3, lidar lms_rear, 2 pair(s))"),
+            std::string::npos)
+      << text;
   const YAML::Node root = YAML::LoadFile(output.string());
   EXPECT_EQ(root["settings"]["motion_correction"].as<std::string>().rfind("per frame from stage 1: turn", 0), 0u);
   const YAML::Node frames = root["motion_correction"];
@@ -601,6 +607,7 @@ TEST_F(CalibrateOnSimulation, MotionCorrectionCliWritesEachFramesCorrection) {
   EXPECT_GE(per_camera["left"], 2);
   EXPECT_LE(per_camera["left"], 4);
   EXPECT_GT(turned, 0);
+ }
 }
 
 // The setting README recommends for a rear push-broom lidar (30 m swathes, near

@@ -46,6 +46,7 @@ AlternatingOptions MakeAlternatingOptions(const CalibrationOptions& options, con
   alternating.default_camera_sigma_translation_m = arguments.camera_sigma_translation_m;
   alternating.default_camera_sigma_rotation_rad = RadiansFromDegrees(arguments.camera_sigma_rotation_deg);
   alternating.min_alternations = FirstAlternationOfLastStage(options.stages, alternating.max_alternations) + 1;
+  alternating.lower_step_scale = StepScalesForAlternations(options.stages, alternating.max_alternations);
   return alternating;
 }
 
@@ -83,13 +84,15 @@ AlternatingRun RunAlternating(const CalibrationInput& input, const CalibrationOp
     for (std::size_t p = 0; p < objectives.size(); ++p) {
       if (!distributed::OwnsPair(static_cast<int>(p), group.rank(), group.size())) objectives[p] = PairObjective{};
     }
-    distributed::ServeLowerLevel(std::move(objectives));
+    distributed::ServeLowerLevel(std::move(objectives), setup.BatchHook(options, alternating, {}));
     run.wrote_nothing = true;
     return run;
   }
   spdlog::info("MPI: {} pair(s) over {} rank(s)", objectives.size(), group.size());
   {
-    distributed::MpiLowerLevelBackend backend(std::move(objectives));
+    distributed::MpiLowerLevelBackend backend(
+        std::move(objectives),
+        setup.BatchHook(options, alternating, [](const std::string& message) { spdlog::info("{}", message); }));
     run.details = SolveAlternating(setup.problem, alternating, backend, [&](const AlternationRecord& record) {
       spdlog::info("{}", DescribeAlternation(record, setup.problem));
     });

@@ -152,8 +152,7 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
                  "and front push-broom lidars) 30 m swathes scored near and far apart did much better (--scheme "
                  "joint --swathe-length 30 --range-split 6 --thin 2 --lower-solver lbfgs --refresh-border 48 at "
                  "1280 px wide; README, \"What to expect\")");
-  } else if (has_push_broom && options.scenes.swathe_length_m >= 20.0 && !options.motion_correction &&
-             options.scheme != CalibrationScheme::kAlt) {
+  } else if (has_push_broom && options.scenes.swathe_length_m >= 20.0 && !options.motion_correction) {
     // Long swathes collect the odometry's drift (BENCHMARK.md, "Seventh session").
     spdlog::info("push-broom lidar with {} m swathes: if the trajectory is visual odometry (drifting ~0.01 deg/m), "
                  "--motion-correction turn corrects each frame's swathe (on two of three simulated drives 0.68-0.85 deg -> "

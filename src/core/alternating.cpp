@@ -24,6 +24,9 @@ bool AlternatingOptions::IsValid(std::string* why) const {
   if (!(default_camera_sigma_translation_m >= 0) || !(default_camera_sigma_rotation_rad >= 0))
     return fail("default camera sigmas must be non-negative");
   if (!(time_budget_s >= 0)) return fail("time budget must be non-negative");
+  for (const double scale : lower_step_scale) {
+    if (!(scale > 0) || !std::isfinite(scale)) return fail("lower-level step scales must be positive numbers");
+  }
   std::string lower_why;
   if (!lower.IsValid(&lower_why)) return fail("lower level: " + lower_why);
   if (!lower_gradient.IsValid(&lower_why)) return fail("lower level (lbfgs): " + lower_why);
@@ -121,6 +124,7 @@ LowerLevelOutcome SolveLowerLevel(const PairObjective& objective, const LowerLev
 
 std::vector<LowerLevelOutcome> ThreadLowerLevelBackend::Solve(const std::vector<LowerLevelTask>& tasks,
                                                               const StopRequested& stop_requested) {
+  if (before_batch_) before_batch_(tasks);
   std::vector<LowerLevelOutcome> outcomes(tasks.size());
   // One task per pair; each pair's cost parallelises over its scenes inside.
   tbb::parallel_for(std::size_t{0}, tasks.size(), [&](std::size_t i) {
@@ -188,6 +192,9 @@ AlternatingResult SolveAlternating(const AlternatingProblem& problem, const Alte
     record.sigma_rotation_rad = options.initial_sigma_rotation_rad * shrink;
     const Matrix6d information = PenaltyInformation(record.sigma_translation_m, record.sigma_rotation_rad);
 
+    const double step_scale = static_cast<std::size_t>(alternation) < options.lower_step_scale.size()
+                                  ? options.lower_step_scale[static_cast<std::size_t>(alternation)]
+                                  : 1.0;
     // Lower level (eq. 13): every pair independently, from the upper estimate.
     std::vector<LowerLevelTask> tasks(pair_count);
     for (std::size_t p = 0; p < pair_count; ++p) {
@@ -199,14 +206,15 @@ AlternatingResult SolveAlternating(const AlternatingProblem& problem, const Alte
       task.penalty_information = information;
       task.options = options.lower;
       task.options.initial_step_translation_m =
-          std::min(options.lower.initial_step_translation_m, record.sigma_translation_m);
-      task.options.initial_step_rotation_rad = std::min(options.lower.initial_step_rotation_rad, record.sigma_rotation_rad);
+          std::min(step_scale * options.lower.initial_step_translation_m, record.sigma_translation_m);
+      task.options.initial_step_rotation_rad =
+          std::min(step_scale * options.lower.initial_step_rotation_rad, record.sigma_rotation_rad);
       task.solver = options.lower_solver;
       task.gradient = options.lower_gradient;
       task.gradient.initial_step_translation_m =
-          std::min(options.lower_gradient.initial_step_translation_m, record.sigma_translation_m);
+          std::min(step_scale * options.lower_gradient.initial_step_translation_m, record.sigma_translation_m);
       task.gradient.initial_step_rotation_rad =
-          std::min(options.lower_gradient.initial_step_rotation_rad, record.sigma_rotation_rad);
+          std::min(step_scale * options.lower_gradient.initial_step_rotation_rad, record.sigma_rotation_rad);
     }
     const std::vector<LowerLevelOutcome> outcomes = backend.Solve(tasks, stop_requested);
     if (outcomes.size() != pair_count) {

@@ -50,6 +50,11 @@ struct AlternatingOptions {
   // those of `lower`.
   LowerSolver lower_solver = LowerSolver::kSimplex;
   GradientSolverOptions lower_gradient;
+  // Factor on the lower level's initial steps (simplex) or parameter scales
+  // (lbfgs) per alternation, before the penalty-sigma cap: a coarse-to-fine
+  // schedule's finer stages search a smaller neighbourhood, as they do in the
+  // once and joint schemes. Alternations beyond its end (or all, when empty) use 1.
+  std::vector<double> lower_step_scale;
   // Used for the inter-camera term when the rig states no T_base_camera_sigma:
   // sub-millimetre factory calibration, as the paper assumes for the Bumblebee.
   double default_camera_sigma_translation_m = 0.0005;
@@ -113,15 +118,24 @@ struct PairObjective {
 LowerLevelOutcome SolveLowerLevel(const PairObjective& objective, const LowerLevelTask& task,
                                   const StopRequested& stop_requested);
 
+// Called with a whole batch of tasks before any of them is solved, on every
+// process that solves some (with MPI: every rank, with the same batch): a
+// change of the pairs' data shared across pairs, e.g. the swathes' drift
+// correction at the upper estimates (AlternatingSetup::BatchHook). Must be
+// deterministic, so that every rank makes the same change.
+using LowerLevelBatchHook = std::function<void(const std::vector<LowerLevelTask>& tasks)>;
+
 // Runs the tasks on the calling process, pairs in parallel (TBB).
 class ThreadLowerLevelBackend : public LowerLevelBackend {
  public:
-  explicit ThreadLowerLevelBackend(std::vector<PairObjective> objectives) : objectives_(std::move(objectives)) {}
+  explicit ThreadLowerLevelBackend(std::vector<PairObjective> objectives, LowerLevelBatchHook before_batch = {})
+      : objectives_(std::move(objectives)), before_batch_(std::move(before_batch)) {}
   std::vector<LowerLevelOutcome> Solve(const std::vector<LowerLevelTask>& tasks,
                                        const StopRequested& stop_requested) override;
 
  private:
   std::vector<PairObjective> objectives_;
+  LowerLevelBatchHook before_batch_;
 };
 
 struct AlternatingCamera {

@@ -87,8 +87,6 @@ bool CalibrationOptions::IsValid(std::string* why) const {
   if (!(thin_margin_px >= 0.0) || !std::isfinite(thin_margin_px))
     return fail("thin_margin_px must be a finite number of pixels >= 0");
   if (motion_correction && !motion.IsValid(why)) return false;
-  if (motion_correction && scheme == CalibrationScheme::kAlt)
-    return fail("motion correction is for the once and joint schemes (alt's lower levels do not estimate it)");
   if (motion_correction_first_stage < 0) return fail("motion_correction_first_stage must be >= 0");
   if (!(time_budget_s >= 0.0) || !std::isfinite(time_budget_s)) return fail("time_budget_s must be >= 0 seconds");
   if (!(agreement_warning_translation_m > 0.0) || !(agreement_warning_rotation_deg > 0.0))

@@ -107,11 +107,13 @@ struct CalibrationOptions {
   int thin_max_points_per_cell = 0;
   int thin_cell_px = 4;
   double thin_margin_px = 128.0;
-  // Per-frame odometry drift correction (once, joint): before each stage from
+  // Per-frame odometry drift correction (every scheme): before each stage from
   // motion_correction_first_stage on (0 = the first), every camera frame's
   // swathe gets the scale and pitch and heading rates that minimise its own
   // cost at the current estimate (PairCost::EstimateMotionCorrections), held
-  // during the stage. For long swathes from drifting odometry.
+  // during the stage (alt: estimated at the upper estimates before the stage's
+  // first alternation, AlternatingSetup::BatchHook). For long swathes from
+  // drifting odometry.
   bool motion_correction = false;
   int motion_correction_first_stage = 1;
   MotionCorrectionOptions motion;

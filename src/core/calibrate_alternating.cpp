@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstring>
+#include <set>
 #include <sstream>
 
 namespace scenecal {
@@ -47,6 +48,12 @@ int FirstAlternationOfLastStage(const std::vector<OptimisationStage>& stages, in
   return max_alternations - 1;
 }
 
+std::vector<double> StepScalesForAlternations(const std::vector<OptimisationStage>& stages, int max_alternations) {
+  std::vector<double> scales;
+  for (int i = 0; i < max_alternations; ++i) scales.push_back(StageForAlternation(stages, i, max_alternations).step_scale);
+  return scales;
+}
+
 AlternatingOptions DefaultAlternatingOptions(const CalibrationOptions& options) {
   AlternatingOptions alternating;
   alternating.lower = options.nelder_mead;
@@ -54,6 +61,7 @@ AlternatingOptions DefaultAlternatingOptions(const CalibrationOptions& options) 
   alternating.lower_gradient = options.gradient;
   alternating.time_budget_s = options.time_budget_s;
   alternating.min_alternations = FirstAlternationOfLastStage(options.stages, alternating.max_alternations) + 1;
+  alternating.lower_step_scale = StepScalesForAlternations(options.stages, alternating.max_alternations);
   return alternating;
 }
 
@@ -76,6 +84,42 @@ std::vector<PairObjective> AlternatingSetup::Objectives(const CalibrationOptions
     objectives.push_back(std::move(objective));
   }
   return objectives;
+}
+
+LowerLevelBatchHook AlternatingSetup::BatchHook(const CalibrationOptions& options,
+                                                const AlternatingOptions& alternating,
+                                                const ProgressCallback& progress) {
+  if (!options.motion_correction) return {};
+  return [this, stages = options.stages, first_stage = options.motion_correction_first_stage,
+          motion = options.motion, max_alternations = alternating.max_alternations,
+          progress](const std::vector<LowerLevelTask>& tasks) {
+    if (tasks.empty()) return;
+    const int alternation = tasks.front().alternation;
+    const OptimisationStage& stage = StageForAlternation(stages, alternation, max_alternations);
+    const bool stage_starts =
+        alternation == 0 || &StageForAlternation(stages, alternation - 1, max_alternations) != &stage;
+    if (!stage_starts || &stage - stages.data() < first_stage) return;
+    for (std::size_t l = 0; l < problem.lidars.size(); ++l) {
+      std::vector<PairCost*> pairs;
+      std::vector<Eigen::Isometry3d> T_camera_lidar;
+      for (const LowerLevelTask& task : tasks) {
+        const std::size_t p = static_cast<std::size_t>(task.pair);
+        if (p >= costs.size() || problem.pairs[p].lidar != static_cast<int>(l)) continue;
+        PreparePairForStage(*costs[p], stage, task.T_camera_lidar_upper);
+        pairs.push_back(costs[p].get());
+        T_camera_lidar.push_back(task.T_camera_lidar_upper);
+      }
+      if (pairs.empty()) continue;
+      const MotionCorrectionSummary summary = EstimateMotionCorrections(pairs, T_camera_lidar, motion);
+      // Each lower level refreshes its visibility before it runs (Objectives' prepare).
+      if (progress) {
+        progress("motion correction (alternation " + std::to_string(alternation + 1) + ", lidar " +
+                 problem.lidars[l].name + ", " + std::to_string(pairs.size()) + " pair(s)): " +
+                 std::to_string(summary.frames) + " frames, cost " + Number(summary.cost_before) + " -> " +
+                 Number(summary.cost_after));
+      }
+    }
+  };
 }
 
 std::uint64_t AlternatingSetup::Fingerprint(const CalibrationOptions& options,
@@ -119,6 +163,19 @@ std::uint64_t AlternatingSetup::Fingerprint(const CalibrationOptions& options,
   digest.Add(alternating.covariance_shrink);
   digest.Add(alternating.initial_sigma_translation_m);
   digest.Add(alternating.initial_sigma_rotation_rad);
+  for (const double scale : alternating.lower_step_scale) digest.Add(scale);
+  digest.Add(static_cast<std::uint64_t>(options.motion_correction));
+  if (options.motion_correction) {
+    const MotionCorrectionOptions& motion = options.motion;
+    digest.Add(static_cast<std::uint64_t>(options.motion_correction_first_stage));
+    digest.Add(static_cast<std::uint64_t>(motion.scale) * 4 + static_cast<std::uint64_t>(motion.turn) * 2 +
+               static_cast<std::uint64_t>(motion.roll));
+    digest.Add(motion.max_scale);
+    digest.Add(motion.max_rate_rad_per_m);
+    digest.Add(motion.initial_step_scale);
+    digest.Add(motion.initial_step_rate_rad_per_m);
+    digest.Add(static_cast<std::uint64_t>(motion.max_iterations));
+  }
   return digest.hash;
 }
 
@@ -195,6 +252,14 @@ CalibrationOutcome FinishAlternating(AlternatingSetup& setup, const AlternatingR
             problem.lidars[static_cast<std::size_t>(pair.lidar)].T_base_lidar_initial,
         setup.initial_costs[p]);
     report.final_cost = cost.Evaluate(T_camera_lidar);
+    if (options.motion_correction) {
+      // One entry per frame (a frame's range bands share its correction).
+      std::set<TimeUs> recorded;
+      for (const SceneSwathe& scene : cost.Scenes()) {
+        if (recorded.insert(scene.ImageTime()).second)
+          outcome.motion_corrections.push_back({report.camera, report.lidar, scene.ImageTime(), scene.MotionCorrection()});
+      }
+    }
     outcome.pairs.push_back(report);
     result.pairs.push_back({report.camera, report.lidar, T_camera_lidar, report.final_cost});
   }
@@ -213,13 +278,15 @@ CalibrationOutcome FinishAlternating(AlternatingSetup& setup, const AlternatingR
         "L-BFGS (analytic gradient of f, central differences of the penalty), at most " +
         std::to_string(alternating.lower_gradient.max_iterations) + " iterations, parameter scales min(" +
         Number(alternating.lower_gradient.initial_step_translation_m) + " m, " +
-        Number(alternating.lower_gradient.initial_step_rotation_rad) + " rad; penalty sigma), function tolerance " +
+        Number(alternating.lower_gradient.initial_step_rotation_rad) +
+        " rad x the stage's step scale; penalty sigma), function tolerance " +
         Number(alternating.lower_gradient.function_tolerance);
   } else {
     result.settings["lower_level"] = "Nelder-Mead, " + std::to_string(alternating.lower.max_iterations) +
                                      " iterations, initial steps min(" +
                                      Number(alternating.lower.initial_step_translation_m) + " m, " +
-                                     Number(alternating.lower.initial_step_rotation_rad) + " rad; penalty sigma)";
+                                     Number(alternating.lower.initial_step_rotation_rad) +
+                                     " rad x the stage's step scale; penalty sigma)";
   }
   result.settings["alternations_max"] = std::to_string(alternating.max_alternations);
   result.settings["penalty_sigma0"] = Number(alternating.initial_sigma_translation_m) + " m, " +
@@ -231,7 +298,7 @@ CalibrationOutcome FinishAlternating(AlternatingSetup& setup, const AlternatingR
                                             " rad (cameras without T_base_camera_sigma)";
   std::string stages;
   for (const OptimisationStage& s : options.stages) {
-    stages += (stages.empty() ? "" : "; ") + std::string("blur ") + Number(s.blur_fraction);
+    stages += (stages.empty() ? "" : "; ") + std::string("step x") + Number(s.step_scale) + " blur " + Number(s.blur_fraction);
   }
   result.settings["stages"] = stages + " (spread over the alternations)";
   result.settings["time_budget_s"] = Number(alternating.time_budget_s);
@@ -264,7 +331,7 @@ CalibrationOutcome CalibrateAlternating(const CalibrationInput& input, const Cal
   }
   const double build_s = std::chrono::duration<double>(Clock::now() - start).count();
   if (progress) progress("built " + std::to_string(setup.costs.size()) + " pair cost(s) in " + Number(build_s) + " s");
-  ThreadLowerLevelBackend backend(setup.Objectives(options, alternating));
+  ThreadLowerLevelBackend backend(setup.Objectives(options, alternating), setup.BatchHook(options, alternating, progress));
   const AlternatingResult solved = SolveAlternating(setup.problem, alternating, backend, [&](const AlternationRecord& record) {
     if (progress) progress(DescribeAlternation(record, setup.problem));
   });

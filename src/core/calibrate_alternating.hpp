@@ -26,6 +26,14 @@ struct AlternatingSetup {
   // the coarse-to-fine stage of the alternation (image blur) and a visibility
   // refresh at the estimate the run starts from.
   std::vector<PairObjective> Objectives(const CalibrationOptions& options, const AlternatingOptions& alternating);
+  // With options.motion_correction, the backend's batch hook: on the first
+  // alternation of every stage from options.motion_correction_first_stage on,
+  // each lidar's pairs are prepared for the stage at their upper estimates and
+  // share each frame's drift correction (EstimateMotionCorrections), held until
+  // the next stage; `progress` (may be empty) hears how far the frames' costs
+  // fell. Empty without the correction.
+  LowerLevelBatchHook BatchHook(const CalibrationOptions& options, const AlternatingOptions& alternating,
+                                const ProgressCallback& progress);
   // A digest of what was built (pairs, scene and point counts, options), equal
   // on every rank that read the same inputs.
   std::uint64_t Fingerprint(const CalibrationOptions& options, const AlternatingOptions& alternating) const;
@@ -37,6 +45,9 @@ const OptimisationStage& StageForAlternation(const std::vector<OptimisationStage
                                              int max_alternations);
 // The first alternation of the last (sharpest) stage.
 int FirstAlternationOfLastStage(const std::vector<OptimisationStage>& stages, int max_alternations);
+
+// Each alternation's stage step_scale (AlternatingOptions::lower_step_scale).
+std::vector<double> StepScalesForAlternations(const std::vector<OptimisationStage>& stages, int max_alternations);
 
 // The paper's settings (20 alternations, P^0 from 5 m and 5 rad, w = 0.5,
 // 200 simplex iterations) with the lower level's steps, the time budget and

@@ -127,12 +127,16 @@ int WorldSize() {
 // The part of a batch every rank runs: decode, solve owned tasks, reduce to root.
 // Rows of tasks owned by other ranks stay zero, so the sum merges them exactly.
 std::vector<double> SolveOwnedAndReduce(const std::vector<double>& encoded_tasks, int task_count,
-                                        const std::vector<PairObjective>& local, const StopRequested& stop_requested) {
+                                        const std::vector<PairObjective>& local, const LowerLevelBatchHook& before_batch,
+                                        const StopRequested& stop_requested) {
   const int rank = WorldRank();
   const int size = WorldSize();
+  std::vector<LowerLevelTask> tasks;
+  for (int i = 0; i < task_count; ++i) tasks.push_back(DecodeTask(encoded_tasks.data() + static_cast<std::size_t>(i) * kTaskDoubles));
+  if (before_batch) before_batch(tasks);
   std::vector<double> outcomes(static_cast<std::size_t>(task_count) * kOutcomeDoubles, 0.0);
   tbb::parallel_for(0, task_count, [&](int i) {
-    const LowerLevelTask task = DecodeTask(encoded_tasks.data() + static_cast<std::size_t>(i) * kTaskDoubles);
+    const LowerLevelTask& task = tasks[static_cast<std::size_t>(i)];
     if (!OwnsPair(task.pair, rank, size)) return;
     if (task.pair < 0 || static_cast<std::size_t>(task.pair) >= local.size() || !local[static_cast<std::size_t>(task.pair)].cost) {
       throw std::runtime_error("rank " + std::to_string(rank) + " has no objective for pair " + std::to_string(task.pair));
@@ -184,7 +188,8 @@ bool FingerprintsAgree(std::uint64_t fingerprint, std::string* why) {
   return false;
 }
 
-MpiLowerLevelBackend::MpiLowerLevelBackend(std::vector<PairObjective> local) : local_(std::move(local)) {}
+MpiLowerLevelBackend::MpiLowerLevelBackend(std::vector<PairObjective> local, LowerLevelBatchHook before_batch)
+    : local_(std::move(local)), before_batch_(std::move(before_batch)) {}
 
 MpiLowerLevelBackend::~MpiLowerLevelBackend() {
   try {
@@ -212,13 +217,13 @@ std::vector<LowerLevelOutcome> MpiLowerLevelBackend::Solve(const std::vector<Low
   for (int i = 0; i < task_count; ++i) EncodeTask(tasks[static_cast<std::size_t>(i)], encoded.data() + static_cast<std::size_t>(i) * kTaskDoubles);
   Check(MPI_Bcast(encoded.data(), static_cast<int>(encoded.size()), MPI_DOUBLE, kRoot, MPI_COMM_WORLD),
         "MPI_Bcast of lower-level tasks");
-  const std::vector<double> merged = SolveOwnedAndReduce(encoded, task_count, local_, stop_requested);
+  const std::vector<double> merged = SolveOwnedAndReduce(encoded, task_count, local_, before_batch_, stop_requested);
   std::vector<LowerLevelOutcome> outcomes(tasks.size());
   for (int i = 0; i < task_count; ++i) outcomes[static_cast<std::size_t>(i)] = DecodeOutcome(merged.data() + static_cast<std::size_t>(i) * kOutcomeDoubles);
   return outcomes;
 }
 
-void ServeLowerLevel(std::vector<PairObjective> local) {
+void ServeLowerLevel(std::vector<PairObjective> local, const LowerLevelBatchHook& before_batch) {
   for (;;) {
     double header[3] = {0, 0, 0};
     Check(MPI_Bcast(header, 3, MPI_DOUBLE, kRoot, MPI_COMM_WORLD), "MPI_Bcast of a batch header");
@@ -227,7 +232,7 @@ void ServeLowerLevel(std::vector<PairObjective> local) {
     std::vector<double> encoded(static_cast<std::size_t>(task_count) * kTaskDoubles);
     Check(MPI_Bcast(encoded.data(), static_cast<int>(encoded.size()), MPI_DOUBLE, kRoot, MPI_COMM_WORLD),
           "MPI_Bcast of lower-level tasks");
-    SolveOwnedAndReduce(encoded, task_count, local, {});
+    SolveOwnedAndReduce(encoded, task_count, local, before_batch, {});
   }
 }
 

@@ -49,7 +49,8 @@ bool FingerprintsAgree(std::uint64_t fingerprint, std::string* why);
 // pairs owned by other ranks may be empty).
 class MpiLowerLevelBackend : public LowerLevelBackend {
  public:
-  explicit MpiLowerLevelBackend(std::vector<PairObjective> local);
+  // before_batch runs on every rank with the whole batch (AlternatingSetup::BatchHook).
+  explicit MpiLowerLevelBackend(std::vector<PairObjective> local, LowerLevelBatchHook before_batch = {});
   ~MpiLowerLevelBackend() override;  // tells the serving ranks to finish
   std::vector<LowerLevelOutcome> Solve(const std::vector<LowerLevelTask>& tasks,
                                        const StopRequested& stop_requested) override;
@@ -58,11 +59,12 @@ class MpiLowerLevelBackend : public LowerLevelBackend {
 
  private:
   std::vector<PairObjective> local_;
+  LowerLevelBatchHook before_batch_;
   bool finished_ = false;
 };
 
 // Ranks other than 0: serve batches until rank 0 finishes. `time_budget_s`
 // bounds each batch on this rank too (0 = none).
-void ServeLowerLevel(std::vector<PairObjective> local);
+void ServeLowerLevel(std::vector<PairObjective> local, const LowerLevelBatchHook& before_batch = {});
 
 }  // namespace scenecal::distributed

@@ -41,6 +41,21 @@ diff <(grep -v elapsed_s <(sed -n '/^history:/,$p' "$work/threads_lbfgs.yaml")) 
      <(grep -v elapsed_s <(sed -n '/^history:/,$p' "$work/mpi_lbfgs.yaml")) >/dev/null ||
   { echo "FAIL: the lbfgs histories differ" >&2; exit 1; }
 
+# The same with the swathes' drift correction: every rank estimates the frames'
+# shared corrections from the broadcast upper estimates, so they must agree.
+"$scenecal" -q calibrate "$work/a" --output "$work/threads_motion.yaml" "${args[@]}" \
+  --motion-correction turn --motion-correction-from-stage 0 >/dev/null
+timeout 300 "${mpi[@]}" -np 3 "$scenecal" -q calibrate "$work/a" --output "$work/mpi_motion.yaml" "${args[@]}" \
+  --motion-correction turn --motion-correction-from-stage 0 --backend mpi >/dev/null
+if ! diff <(strip "$work/threads_motion.yaml") <(strip "$work/mpi_motion.yaml"); then
+  echo "FAIL: the MPI result differs from the thread result with --motion-correction" >&2
+  exit 1
+fi
+grep -q 'turn_a_deg_per_m' "$work/mpi_motion.yaml" || { echo "FAIL: no frame's drift correction in the MPI result" >&2; exit 1; }
+diff <(sed -n '/^motion_correction:/,/^[a-z]/p' "$work/threads_motion.yaml") \
+     <(sed -n '/^motion_correction:/,/^[a-z]/p' "$work/mpi_motion.yaml") >/dev/null ||
+  { echo "FAIL: the frames' drift corrections differ" >&2; exit 1; }
+
 # Rank 0 reads dataset a, ranks 1-2 read dataset b: a clear error, no hang, no result.
 set +e
 timeout 300 "${mpi[@]}" -np 1 "$scenecal" -q calibrate "$work/a" --output "$work/mixed.yaml" "${args[@]}" --backend mpi : \
@@ -54,4 +69,4 @@ if [[ $status -eq 0 || $status -eq 124 ]]; then
 fi
 grep -q "differ from rank 0" "$work/mixed.log" || { echo "FAIL: no message naming the differing ranks" >&2; cat "$work/mixed.log" >&2; exit 1; }
 [[ ! -e "$work/mixed.yaml" ]] || { echo "FAIL: a result was written despite the mismatch" >&2; exit 1; }
-echo "4 passed, 0 failed"
+echo "5 passed, 0 failed"
