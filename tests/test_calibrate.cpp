@@ -304,6 +304,16 @@ TEST_F(CalibrateOnSimulation, CliExitCodes) {
                    &motion_text),
             2);
   EXPECT_NE(motion_text.find("--motion-max-rate"), std::string::npos) << motion_text;
+  // Numbers out of their domain: the message says what was expected.
+  std::string number_text;
+  EXPECT_EQ(RunCli("calibrate " + DatasetPath().string() + " --output " + output.string() + " --sigma0-rotation 0",
+                   &number_text),
+            2);
+  EXPECT_NE(number_text.find("--sigma0-rotation: 0 is not a positive number"), std::string::npos) << number_text;
+  EXPECT_EQ(RunCli("calibrate " + DatasetPath().string() + " --output " + output.string() + " --threads -1",
+                   &number_text),
+            2);
+  EXPECT_NE(number_text.find("--threads: -1 is not a number >= 0"), std::string::npos) << number_text;
   // Constant images: a copy of the dataset with every image flat grey; exit 1, no file.
   const fs::path flat = root_ / "flat";
   fs::copy(DatasetPath(), flat, fs::copy_options::recursive);

@@ -433,6 +433,12 @@ TEST_F(LowerSolverOnSimulation, AlternatingWithLbfgsRecordsItsSolver) {
   EXPECT_EQ(outcome.result.settings.at("binning"), "bspline");
   EXPECT_EQ(outcome.result.settings.at("lower_solver").rfind("lbfgs", 0), 0u) << outcome.result.settings.at("lower_solver");
   EXPECT_NE(outcome.result.settings.at("lower_level").find("L-BFGS"), std::string::npos);
+  // L-BFGS lower levels start with a looser coupling than the paper's 5 m / 5 rad (the simplex keeps those).
+  EXPECT_EQ(outcome.result.settings.at("penalty_sigma0"), "500 m, 500 rad");
+  CalibrationOptions simplex = options;
+  simplex.lower_solver = LowerSolver::kSimplex;
+  EXPECT_EQ(DefaultAlternatingOptions(simplex).initial_sigma_translation_m, 5.0);
+  EXPECT_EQ(DefaultAlternatingOptions(simplex).initial_sigma_rotation_rad, 5.0);
   EXPECT_NE(outcome.result.termination.find("with gradient"), std::string::npos) << outcome.result.termination;
   ASSERT_EQ(outcome.optimisations.size(), 1u);
   EXPECT_EQ(outcome.optimisations[0].solver, LowerSolver::kLbfgs);

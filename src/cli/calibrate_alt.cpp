@@ -39,8 +39,8 @@ AlternatingOptions MakeAlternatingOptions(const CalibrationOptions& options, con
   AlternatingOptions alternating = DefaultAlternatingOptions(options);
   alternating.max_alternations = arguments.alternations;
   alternating.covariance_shrink = arguments.shrink;
-  alternating.initial_sigma_translation_m = arguments.sigma0_translation_m;
-  alternating.initial_sigma_rotation_rad = arguments.sigma0_rotation_rad;
+  if (arguments.sigma0_translation_m) alternating.initial_sigma_translation_m = *arguments.sigma0_translation_m;
+  if (arguments.sigma0_rotation_rad) alternating.initial_sigma_rotation_rad = *arguments.sigma0_rotation_rad;
   alternating.stop_translation_m = arguments.stop_translation_m;
   alternating.stop_rotation_rad = RadiansFromDegrees(arguments.stop_rotation_deg);
   alternating.default_camera_sigma_translation_m = arguments.camera_sigma_translation_m;

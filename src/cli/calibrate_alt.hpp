@@ -2,6 +2,7 @@
 #pragma once
 
 #include <memory>
+#include <optional>
 #include <string>
 
 #include <yaml-cpp/yaml.h>
@@ -14,8 +15,9 @@ struct AlternatingArguments {
   std::string backend = "threads";  // threads | mpi
   int alternations = 20;
   double shrink = 0.5;
-  double sigma0_translation_m = 5.0;
-  double sigma0_rotation_rad = 5.0;
+  // Not given: DefaultAlternatingOptions' (the paper's 5 m / 5 rad with the simplex, looser with lbfgs).
+  std::optional<double> sigma0_translation_m;
+  std::optional<double> sigma0_rotation_rad;
   double stop_translation_m = 2e-4;
   double stop_rotation_deg = 1e-3;
   double camera_sigma_translation_m = 0.0005;

@@ -25,6 +25,7 @@
 #include "cli/commands.hpp"
 #include "cli/cost_arguments.hpp"
 #include "cli/load_input.hpp"
+#include "cli/validators.hpp"
 #include "core/calibrate.hpp"
 #include "core/calibrate_alternating.hpp"
 #include "core/geometry.hpp"
@@ -534,11 +535,11 @@ CommandRunner AddExperimentCommand(CLI::App& app) {
       ->capture_default_str();
   command->add_option("--perturb-translation", args->perturb_translation_m,
                       "Each guess is the truth moved by exactly this many metres in a random direction")
-      ->check(CLI::NonNegativeNumber)
+      ->check(kNonNegative)
       ->capture_default_str();
   command->add_option("--perturb-rotation", args->perturb_rotation_deg,
                       "... and rotated by exactly this many degrees about a random axis")
-      ->check(CLI::NonNegativeNumber)
+      ->check(kNonNegative)
       ->capture_default_str();
   command->add_option("--schemes", args->schemes, "Comma-separated schemes: once, joint, alt")
       ->delimiter(',')
@@ -555,12 +556,12 @@ CommandRunner AddExperimentCommand(CLI::App& app) {
       ->check(CLI::Range(1, 10000))
       ->capture_default_str();
   command->add_option("--threads", args->threads, "Worker threads; 0 = all hardware threads")
-      ->check(CLI::NonNegativeNumber)
+      ->check(kNonNegative)
       ->capture_default_str();
   command->add_option("--image-size", args->image_size,
                       "Simulated image size WxH (default: the simulator's 1280x960)");
   command->add_option("--distance", args->distance_m, "Simulated drive length in metres")
-      ->check(CLI::PositiveNumber)
+      ->check(kPositive)
       ->capture_default_str();
   command->add_option("--max-iterations", args->max_iterations, "Nelder-Mead iterations per stage (the paper: 200)")
       ->check(CLI::Range(1, 1000000))
@@ -574,7 +575,7 @@ CommandRunner AddExperimentCommand(CLI::App& app) {
                       "Coarse-to-fine schedule, as calibrate's --stages (SCALE[:BLUR[:RESTARTS]],...)")
       ->capture_default_str();
   command->add_option("--swathe-length", args->swathe_length_m, "Swathe length L in metres")
-      ->check(CLI::PositiveNumber)
+      ->check(kPositive)
       ->capture_default_str();
   command->add_option("--overlay-scenes", args->overlay_scenes,
                       "Scenes per camera/lidar pair shown as overlays (first guess, alt-nid when run); 0 = none")

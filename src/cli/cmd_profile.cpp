@@ -28,6 +28,7 @@
 #include "cli/commands.hpp"
 #include "cli/cost_arguments.hpp"
 #include "cli/load_input.hpp"
+#include "cli/validators.hpp"
 #include "core/calibrate.hpp"
 #include "core/geometry.hpp"
 #include "core/nelder_mead.hpp"
@@ -359,11 +360,11 @@ CommandRunner AddProfileCommand(CLI::App& app) {
       ->capture_default_str();
   command->add_option("--half-range-translation", args->half_range_translation_m,
                       "Translation offsets span +- this many metres")
-      ->check(CLI::PositiveNumber)
+      ->check(kPositive)
       ->capture_default_str();
   command->add_option("--half-range-rotation", args->half_range_rotation_deg,
                       "Rotation offsets span +- this many degrees")
-      ->check(CLI::PositiveNumber)
+      ->check(kPositive)
       ->capture_default_str();
   command->add_option("--samples", args->samples,
                       "Samples per degree of freedom (made odd, so the centre is one); the line gets as many per unit "
@@ -376,7 +377,7 @@ CommandRunner AddProfileCommand(CLI::App& app) {
       ->check(CLI::Range(0.0, 0.1))
       ->capture_default_str();
   command->add_option("--threads", args->threads, "Worker threads; 0 = all hardware threads")
-      ->check(CLI::NonNegativeNumber)
+      ->check(kNonNegative)
       ->capture_default_str();
   AddCostOptions(command, &args->cost);
   return [args] { return RunProfile(*args); };

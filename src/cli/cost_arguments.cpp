@@ -5,6 +5,7 @@
 #include <spdlog/spdlog.h>
 
 #include "cli/load_input.hpp"
+#include "cli/validators.hpp"
 #include "core/geometry.hpp"
 
 namespace scenecal::cli {
@@ -18,7 +19,7 @@ void AddCostOptions(CLI::App* command, CostArguments* args) {
       ->capture_default_str();
   command->add_option("--swathe-length", args->swathe_length_m,
                       "Swathe length L in metres: the scans taken while the vehicle travels L m")
-      ->check(CLI::PositiveNumber)
+      ->check(kPositive)
       ->capture_default_str();
   command->add_option("--direction", args->direction,
                       "Swathe window: forward (the L m after the frame), backward (before), both (L m each side)")
@@ -63,51 +64,51 @@ void AddCostOptions(CLI::App* command, CostArguments* args) {
       ->capture_default_str();
   command->add_option("--max-scans-per-scene", args->max_scans_per_scene,
                       "Cap on scans per swathe (evenly thinned); 0 = no cap")
-      ->check(CLI::NonNegativeNumber)
+      ->check(kNonNegative)
       ->capture_default_str();
   command->add_option("--swathe-trim", args->swathe_trim_margin_m,
                       "Keep only the scans of a swathe whose points reach the image at the initial guess, plus this "
                       "margin (metres of travel) either side; negative keeps every scan of the window")
       ->capture_default_str();
   command->add_option("--min-speed", args->min_speed_mps, "Frames taken below this speed (m/s) are skipped")
-      ->check(CLI::NonNegativeNumber)
+      ->check(kNonNegative)
       ->capture_default_str();
   command->add_flag("--no-occlusion", args->no_occlusion, "Disable the z-buffer occlusion test");
   command->add_option("--occlusion-cell", args->occlusion_cell_px,
                       "Z-buffer cell in pixels (a point is hidden when a point of its cell is nearer by the margin); 0 = "
                       "image width / 80. Larger cells hide more of what is truly occluded between sparse points, but "
                       "also the far part of a road seen at a grazing angle")
-      ->check(CLI::NonNegativeNumber)
+      ->check(kNonNegative)
       ->capture_default_str();
   command->add_option("--occlusion-margin", args->occlusion_relative_margin,
                       "Z-buffer: a point is hidden when its depth exceeds the cell's nearest by this fraction plus "
                       "--occlusion-margin-abs")
-      ->check(CLI::NonNegativeNumber)
+      ->check(kNonNegative)
       ->capture_default_str();
   command->add_option("--occlusion-margin-abs", args->occlusion_absolute_margin_m,
                       "Z-buffer: the absolute part of the margin, metres")
-      ->check(CLI::NonNegativeNumber)
+      ->check(kNonNegative)
       ->capture_default_str();
   command->add_option("--refresh-border", args->refresh_border_px,
                       "Diagnostic: score only the points at least this many pixels inside the image where "
                       "visibility is refreshed (each stage), a fixed set instead of points entering and leaving at "
                       "the border; 0 = off. Not better on average (BENCHMARK.md), but it shows how much of a result "
                       "came from the image border")
-      ->check(CLI::NonNegativeNumber)
+      ->check(kNonNegative)
       ->capture_default_str();
   command->add_option("--min-range", args->min_range_m,
                       "Lidar points nearer than this many metres to the lidar are dropped (the vehicle's body, "
                       "spray); must be below --max-range")
-      ->check(CLI::NonNegativeNumber)
+      ->check(kNonNegative)
       ->capture_default_str();
   command->add_option("--max-range", args->max_range_m, "Lidar points farther than this many metres are dropped")
-      ->check(CLI::PositiveNumber)
+      ->check(kPositive)
       ->capture_default_str();
   command->add_option("--range-split", args->range_split_m,
                       "Score each scene's lidar points nearer and farther than this many metres from the lidar as "
                       "two scenes (each its own joint histogram), so the few far returns weigh as much as the many "
                       "near ones; 0 = off")
-      ->check(CLI::NonNegativeNumber)
+      ->check(kNonNegative)
       ->capture_default_str();
   command->add_option("--thin", args->thin,
                       "Thin crowded swathes: project each scene's points at the initial guess into cells of "

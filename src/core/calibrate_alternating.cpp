@@ -62,6 +62,13 @@ AlternatingOptions DefaultAlternatingOptions(const CalibrationOptions& options) 
   alternating.time_budget_s = options.time_budget_s;
   alternating.min_alternations = FirstAlternationOfLastStage(options.stages, alternating.max_alternations) + 1;
   alternating.lower_step_scale = StepScalesForAlternations(options.stages, alternating.max_alternations);
+  if (options.lower_solver == LowerSolver::kLbfgs) {
+    // The paper's P^0 goes with its simplex. L-BFGS lower levels find the smooth
+    // cost's own minimum, and there the paper's coupling already holds them back
+    // where the cost is flat (BENCHMARK.md, "Eighth session").
+    alternating.initial_sigma_translation_m = kLbfgsInitialSigma;
+    alternating.initial_sigma_rotation_rad = kLbfgsInitialSigma;
+  }
   return alternating;
 }
 

@@ -1,0 +1,36 @@
+// Number checks for CLI options whose messages say what was expected (CLI11's
+// own PositiveNumber prints the whole range of a double).
+#pragma once
+
+#include <cmath>
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+namespace scenecal::cli {
+
+namespace detail {
+inline CLI::Validator NumberCheck(bool allow_zero, const char* name, const char* expected) {
+  return CLI::Validator(
+      [allow_zero, expected](std::string& input) -> std::string {
+        double value = 0.0;
+        std::size_t used = 0;
+        try {
+          value = std::stod(input, &used);
+        } catch (const std::exception&) {
+          used = 0;
+        }
+        if (used != input.size() || !std::isfinite(value) || value < 0.0 || (!allow_zero && value == 0.0))
+          return input + " is not " + expected;
+        return {};
+      },
+      name);
+}
+}  // namespace detail
+
+// A finite number > 0.
+inline const CLI::Validator kPositive = detail::NumberCheck(false, "POSITIVE", "a positive number");
+// A finite number >= 0.
+inline const CLI::Validator kNonNegative = detail::NumberCheck(true, "NONNEGATIVE", "a number >= 0");
+
+}  // namespace scenecal::cli
