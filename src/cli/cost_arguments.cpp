@@ -185,8 +185,8 @@ void AddMotionCorrectionOptions(CLI::App* command, MotionCorrectionArguments* ar
                       "from drifting odometry: the terms to estimate, a comma list of turn (rates across the "
                       "travel: heading and pitch), scale (of the distance travelled) and roll (rate about the "
                       "travel); each frame's from its own cost at the current estimate, before each stage from "
-                      "--motion-correction-from-stage on (every scheme; alt: before the first alternation of each stage, at the "
-                      "upper estimates, shared by the lower levels). Off when not given")
+                      "--motion-correction-from-stage on (every scheme; alt: before the first alternation of each "
+                      "stage, at the upper estimates, shared by the lower levels). Off when not given")
       ->delimiter(',')
       ->check(CLI::IsMember({"turn", "scale", "roll"}));
   command->add_option("--motion-correction-from-stage", args->first_stage,

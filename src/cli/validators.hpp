@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cmath>
+#include <exception>
 #include <string>
 
 #include <CLI/CLI.hpp>

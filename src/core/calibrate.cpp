@@ -390,6 +390,15 @@ std::string DescribeUnusable(const std::string& lidar, const std::vector<std::un
   return out.str();
 }
 
+void AppendFrameMotionCorrections(const PairCost& pair, const std::string& lidar,
+                                  std::vector<FrameMotionCorrection>* corrections) {
+  std::set<TimeUs> recorded;
+  for (const SceneSwathe& scene : pair.Scenes()) {
+    if (recorded.insert(scene.ImageTime()).second)
+      corrections->push_back({pair.Camera().name, lidar, scene.ImageTime(), scene.MotionCorrection()});
+  }
+}
+
 PairReport MakePairReport(const PairCost& pair, const Eigen::Isometry3d& T_initial, double initial_cost) {
   PairReport report;
   report.camera = pair.Camera().name;
@@ -651,15 +660,7 @@ CalibrationOutcome Calibrate(const CalibrationInput& input, const CalibrationOpt
       }
       pair.SetImageBlur(0.0);
       pair.RefreshVisibility(T_camera_lidar[p]);
-      if (options.motion_correction) {
-        // One entry per frame (a frame's range bands share its correction).
-        std::set<TimeUs> recorded;
-        for (const SceneSwathe& scene : pair.Scenes()) {
-          if (recorded.insert(scene.ImageTime()).second)
-            outcome.motion_corrections.push_back(
-                {pair.Camera().name, lidar.name, scene.ImageTime(), scene.MotionCorrection()});
-        }
-      }
+      if (options.motion_correction) AppendFrameMotionCorrections(pair, lidar.name, &outcome.motion_corrections);
       PairReport report = MakePairReport(pair, T_initial, initial_costs[p]);
       report.final_cost = pair.Evaluate(T_camera_lidar[p]);
       outcome.pairs.push_back(report);

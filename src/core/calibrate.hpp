@@ -238,6 +238,10 @@ std::string DescribeUnusable(const std::string& lidar, const std::vector<std::un
                              int min_points);
 // The diagnostics of a pair in its current state (scenes used at its last refresh).
 PairReport MakePairReport(const PairCost& pair, const Eigen::Isometry3d& T_initial, double initial_cost);
+// Appends the pair's drift corrections, one entry per camera frame (a frame's
+// range bands share one), in the order of its scenes.
+void AppendFrameMotionCorrections(const PairCost& pair, const std::string& lidar,
+                                  std::vector<FrameMotionCorrection>* corrections);
 
 // Centroid (lidar frame, metres) of the visible points of the used scenes that
 // project under T_base_lidar, over every pair (T_camera_lidar = T_base_camera^-1

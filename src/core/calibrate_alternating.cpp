@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cstring>
-#include <set>
 #include <sstream>
 
 namespace scenecal {
@@ -259,14 +258,7 @@ CalibrationOutcome FinishAlternating(AlternatingSetup& setup, const AlternatingR
             problem.lidars[static_cast<std::size_t>(pair.lidar)].T_base_lidar_initial,
         setup.initial_costs[p]);
     report.final_cost = cost.Evaluate(T_camera_lidar);
-    if (options.motion_correction) {
-      // One entry per frame (a frame's range bands share its correction).
-      std::set<TimeUs> recorded;
-      for (const SceneSwathe& scene : cost.Scenes()) {
-        if (recorded.insert(scene.ImageTime()).second)
-          outcome.motion_corrections.push_back({report.camera, report.lidar, scene.ImageTime(), scene.MotionCorrection()});
-      }
-    }
+    if (options.motion_correction) AppendFrameMotionCorrections(cost, report.lidar, &outcome.motion_corrections);
     outcome.pairs.push_back(report);
     result.pairs.push_back({report.camera, report.lidar, T_camera_lidar, report.final_cost});
   }
