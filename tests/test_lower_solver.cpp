@@ -8,6 +8,7 @@
 //    dataset (analytic gradient): it recovers a perturbed transform;
 //  - the options and the CLI: lbfgs needs B-spline binning (exit 2 for
 //    --binning hard), picks it when --binning is not given and records it.
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -440,6 +441,22 @@ TEST_F(LowerSolverOnSimulation, AlternatingWithLbfgsRecordsItsSolver) {
   EXPECT_EQ(DefaultAlternatingOptions(simplex).initial_sigma_translation_m, 5.0);
   EXPECT_EQ(DefaultAlternatingOptions(simplex).initial_sigma_rotation_rad, 5.0);
   EXPECT_NE(outcome.result.termination.find("with gradient"), std::string::npos) << outcome.result.termination;
+  // Levels further apart at the end than the agreement thresholds: the result says so (the run
+  // is deterministic, so thresholds at half and twice the gap found bracket it).
+  const AlternationRecord& last = details.history.back();
+  ASSERT_GT(last.max_disagreement_translation_m, 0.0);
+  ASSERT_GT(last.max_disagreement_rotation_rad, 0.0);
+  const auto levels_warnings = [&](double factor) {
+    AlternatingOptions thresholds = alternating;
+    thresholds.agreement_translation_m = factor * last.max_disagreement_translation_m;
+    thresholds.agreement_rotation_rad = factor * last.max_disagreement_rotation_rad;
+    const CalibrationOutcome rerun = CalibrateAlternating(input, options, thresholds, {});
+    return std::count_if(rerun.result.warnings.begin(), rerun.result.warnings.end(), [](const std::string& w) {
+      return w.find("lower and upper levels ended") != std::string::npos;
+    });
+  };
+  EXPECT_EQ(levels_warnings(0.5), 1);
+  EXPECT_EQ(levels_warnings(2.0), 0);
   ASSERT_EQ(outcome.optimisations.size(), 1u);
   EXPECT_EQ(outcome.optimisations[0].solver, LowerSolver::kLbfgs);
   EXPECT_EQ(outcome.optimisations[0].gradient_evaluations, details.total_gradient_evaluations);

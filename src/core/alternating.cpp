@@ -24,6 +24,8 @@ bool AlternatingOptions::IsValid(std::string* why) const {
   if (!(default_camera_sigma_translation_m >= 0) || !(default_camera_sigma_rotation_rad >= 0))
     return fail("default camera sigmas must be non-negative");
   if (!(time_budget_s >= 0)) return fail("time budget must be non-negative");
+  if (!(agreement_translation_m > 0) || !(agreement_rotation_rad > 0))
+    return fail("agreement thresholds must be positive");
   for (const double scale : lower_step_scale) {
     if (!(scale > 0) || !std::isfinite(scale)) return fail("lower-level step scales must be positive numbers");
   }

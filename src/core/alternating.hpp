@@ -59,6 +59,11 @@ struct AlternatingOptions {
   // sub-millimetre factory calibration, as the paper assumes for the Bumblebee.
   double default_camera_sigma_translation_m = 0.0005;
   double default_camera_sigma_rotation_rad = 0.0002;
+  // The levels "agree" at the end when every lower solution is within these of
+  // its upper one (the paper's Fig. 4: both converge to the same optimum);
+  // otherwise the result carries a warning (FinishAlternating).
+  double agreement_translation_m = 1e-3;
+  double agreement_rotation_rad = 1.7453e-4;  // 0.01 deg
   // Wall-clock budget for the whole optimisation (0 = none); when it runs out the
   // best estimate so far is returned with the termination saying so.
   double time_budget_s = 0.0;

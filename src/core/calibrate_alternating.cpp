@@ -305,6 +305,19 @@ CalibrationOutcome FinishAlternating(AlternatingSetup& setup, const AlternatingR
                        DescribeEvaluations(alternating.lower_solver, solved.total_evaluations,
                                            solved.total_gradient_evaluations);
   result.warnings = setup.warnings;
+  if (!solved.history.empty()) {
+    const AlternationRecord& last = solved.history.back();
+    if (last.max_disagreement_translation_m > alternating.agreement_translation_m ||
+        last.max_disagreement_rotation_rad > alternating.agreement_rotation_rad) {
+      result.warnings.push_back(
+          "alt: the lower and upper levels ended " + Number(last.max_disagreement_translation_m * 1000.0) + " mm / " +
+          Number(DegreesFromRadians(last.max_disagreement_rotation_rad)) + " deg apart (penalty sigma " +
+          Number(last.sigma_translation_m) + " m / " + Number(last.sigma_rotation_rad) +
+          " rad at the end): the pairs' own minima disagree by more than the coupling had enforced, and the "
+          "result is the upper level's compromise between them; more --alternations (or a smaller --shrink) "
+          "tighten it, toward the joint scheme's answer");
+    }
+  }
   (void)input;
   return outcome;
 }
