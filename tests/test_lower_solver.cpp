@@ -423,8 +423,7 @@ TEST_F(LowerSolverOnSimulation, AlternatingWithLbfgsRecordsItsSolver) {
   options.scenes.scenes_per_camera = 4;
   options.stages = {{1.0, 0.0, 0}};
   const CalibrationInput input = Load(dataset, options.scenes);
-  AlternatingOptions alternating = DefaultAlternatingOptions(options);
-  alternating.max_alternations = 3;
+  AlternatingOptions alternating = DefaultAlternatingOptions(options, 3);
   AlternatingResult details;
   const CalibrationOutcome outcome = CalibrateAlternating(input, options, alternating, {}, &details);
   ASSERT_EQ(outcome.status, CalibrationStatus::kSuccess) << outcome.why;

@@ -36,8 +36,7 @@ void ProcessGroup::AbortAll(int exit_code) {
 }
 
 AlternatingOptions MakeAlternatingOptions(const CalibrationOptions& options, const AlternatingArguments& arguments) {
-  AlternatingOptions alternating = DefaultAlternatingOptions(options);
-  alternating.max_alternations = arguments.alternations;
+  AlternatingOptions alternating = DefaultAlternatingOptions(options, arguments.alternations);
   alternating.covariance_shrink = arguments.shrink;
   if (arguments.sigma0_translation_m) alternating.initial_sigma_translation_m = *arguments.sigma0_translation_m;
   if (arguments.sigma0_rotation_rad) alternating.initial_sigma_rotation_rad = *arguments.sigma0_rotation_rad;
@@ -45,8 +44,6 @@ AlternatingOptions MakeAlternatingOptions(const CalibrationOptions& options, con
   alternating.stop_rotation_rad = RadiansFromDegrees(arguments.stop_rotation_deg);
   alternating.default_camera_sigma_translation_m = arguments.camera_sigma_translation_m;
   alternating.default_camera_sigma_rotation_rad = RadiansFromDegrees(arguments.camera_sigma_rotation_deg);
-  alternating.min_alternations = FirstAlternationOfLastStage(options.stages, alternating.max_alternations) + 1;
-  alternating.lower_step_scale = StepScalesForAlternations(options.stages, alternating.max_alternations);
   return alternating;
 }
 

@@ -390,6 +390,19 @@ std::string DescribeUnusable(const std::string& lidar, const std::vector<std::un
   return out.str();
 }
 
+std::string DescribeMotionCorrection(const MotionCorrectionSummary& summary) {
+  double max_scale = 0.0, max_turn = 0.0, max_roll = 0.0;
+  for (const SwatheMotionCorrection& c : summary.corrections) {
+    max_scale = std::max(max_scale, std::abs(c.scale));
+    max_turn = std::max(max_turn, std::hypot(c.turn_a_rad_per_m, c.turn_b_rad_per_m));
+    max_roll = std::max(max_roll, std::abs(c.roll_rad_per_m));
+  }
+  return std::to_string(summary.frames) + " frames, cost " + FormatNumber(summary.cost_before) + " -> " +
+         FormatNumber(summary.cost_after) + ", largest scale " + FormatNumber(100.0 * max_scale) + " %, turn " +
+         FormatNumber(DegreesFromRadians(max_turn)) + " deg/m, roll " + FormatNumber(DegreesFromRadians(max_roll)) +
+         " deg/m";
+}
+
 void AppendFrameMotionCorrections(const PairCost& pair, const std::string& lidar,
                                   std::vector<FrameMotionCorrection>* corrections) {
   std::set<TimeUs> recorded;
@@ -577,18 +590,9 @@ CalibrationOutcome Calibrate(const CalibrationInput& input, const CalibrationOpt
       const MotionCorrectionSummary summary = EstimateMotionCorrections(pairs, T_camera_lidar_now, options.motion);
       // The visibility follows the re-posed scans.
       for (std::size_t p = 0; p < pairs.size(); ++p) pairs[p]->RefreshVisibility(T_camera_lidar_now[p]);
-      double max_scale = 0.0, max_turn = 0.0, max_roll = 0.0;
-      for (const SwatheMotionCorrection& c : summary.corrections) {
-        max_scale = std::max(max_scale, std::abs(c.scale));
-        max_turn = std::max(max_turn, std::hypot(c.turn_a_rad_per_m, c.turn_b_rad_per_m));
-        max_roll = std::max(max_roll, std::abs(c.roll_rad_per_m));
-      }
       std::string names;
       for (const PairCost* pair : pairs) names += (names.empty() ? "" : ", ") + pair->Camera().name + "/" + lidar.name;
-      say("motion correction (" + names + "): " + std::to_string(summary.frames) + " frames, cost " +
-          FormatNumber(summary.cost_before) + " -> " + FormatNumber(summary.cost_after) + ", largest scale " +
-          FormatNumber(100.0 * max_scale) + " %, turn " + FormatNumber(DegreesFromRadians(max_turn)) +
-          " deg/m, roll " + FormatNumber(DegreesFromRadians(max_roll)) + " deg/m");
+      say("motion correction (" + names + "): " + DescribeMotionCorrection(summary));
     };
     if (options.scheme == CalibrationScheme::kJoint) {
       std::vector<const PairCost*> pairs;

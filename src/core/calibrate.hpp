@@ -238,6 +238,9 @@ std::string DescribeUnusable(const std::string& lidar, const std::vector<std::un
                              int min_points);
 // The diagnostics of a pair in its current state (scenes used at its last refresh).
 PairReport MakePairReport(const PairCost& pair, const Eigen::Isometry3d& T_initial, double initial_cost);
+// "N frames, cost a -> b, largest scale .. %, turn .. deg/m, roll .. deg/m":
+// one pass of EstimateMotionCorrections, for the progress log.
+std::string DescribeMotionCorrection(const MotionCorrectionSummary& summary);
 // Appends the pair's drift corrections, one entry per camera frame (a frame's
 // range bands share one), in the order of its scenes.
 void AppendFrameMotionCorrections(const PairCost& pair, const std::string& lidar,

@@ -32,17 +32,19 @@ struct Digest {
 
 }  // namespace
 
+std::size_t StageIndexForAlternation(std::size_t stage_count, int alternation, int max_alternations) {
+  return std::min(stage_count - 1, static_cast<std::size_t>(alternation) * stage_count /
+                                       static_cast<std::size_t>(std::max(1, max_alternations)));
+}
+
 const OptimisationStage& StageForAlternation(const std::vector<OptimisationStage>& stages, int alternation,
                                              int max_alternations) {
-  const std::size_t count = stages.size();
-  const std::size_t index =
-      std::min(count - 1, static_cast<std::size_t>(alternation) * count / static_cast<std::size_t>(std::max(1, max_alternations)));
-  return stages[index];
+  return stages[StageIndexForAlternation(stages.size(), alternation, max_alternations)];
 }
 
 int FirstAlternationOfLastStage(const std::vector<OptimisationStage>& stages, int max_alternations) {
   for (int i = 0; i < max_alternations; ++i) {
-    if (&StageForAlternation(stages, i, max_alternations) == &stages.back()) return i;
+    if (StageIndexForAlternation(stages.size(), i, max_alternations) == stages.size() - 1) return i;
   }
   return max_alternations - 1;
 }
@@ -53,8 +55,9 @@ std::vector<double> StepScalesForAlternations(const std::vector<OptimisationStag
   return scales;
 }
 
-AlternatingOptions DefaultAlternatingOptions(const CalibrationOptions& options) {
+AlternatingOptions DefaultAlternatingOptions(const CalibrationOptions& options, int max_alternations) {
   AlternatingOptions alternating;
+  alternating.max_alternations = max_alternations;
   alternating.lower = options.nelder_mead;
   alternating.lower_solver = options.lower_solver;
   alternating.lower_gradient = options.gradient;
@@ -101,10 +104,11 @@ LowerLevelBatchHook AlternatingSetup::BatchHook(const CalibrationOptions& option
           progress](const std::vector<LowerLevelTask>& tasks) {
     if (tasks.empty()) return;
     const int alternation = tasks.front().alternation;
-    const OptimisationStage& stage = StageForAlternation(stages, alternation, max_alternations);
+    const std::size_t stage_index = StageIndexForAlternation(stages.size(), alternation, max_alternations);
     const bool stage_starts =
-        alternation == 0 || &StageForAlternation(stages, alternation - 1, max_alternations) != &stage;
-    if (!stage_starts || &stage - stages.data() < first_stage) return;
+        alternation == 0 || StageIndexForAlternation(stages.size(), alternation - 1, max_alternations) != stage_index;
+    if (!stage_starts || stage_index < static_cast<std::size_t>(first_stage)) return;
+    const OptimisationStage& stage = stages[stage_index];
     for (std::size_t l = 0; l < problem.lidars.size(); ++l) {
       std::vector<PairCost*> pairs;
       std::vector<Eigen::Isometry3d> T_camera_lidar;
@@ -120,9 +124,8 @@ LowerLevelBatchHook AlternatingSetup::BatchHook(const CalibrationOptions& option
       // Each lower level refreshes its visibility before it runs (Objectives' prepare).
       if (progress) {
         progress("motion correction (alternation " + std::to_string(alternation + 1) + ", lidar " +
-                 problem.lidars[l].name + ", " + std::to_string(pairs.size()) + " pair(s)): " +
-                 std::to_string(summary.frames) + " frames, cost " + Number(summary.cost_before) + " -> " +
-                 Number(summary.cost_after));
+                 problem.lidars[l].name + ", " + std::to_string(pairs.size()) +
+                 " pair(s)): " + DescribeMotionCorrection(summary));
       }
     }
   };

@@ -41,6 +41,7 @@ struct AlternatingSetup {
 
 // The stage of options.stages that alternation i uses: the schedule is spread
 // evenly over max_alternations (the first alternations on the blurred images).
+std::size_t StageIndexForAlternation(std::size_t stage_count, int alternation, int max_alternations);
 const OptimisationStage& StageForAlternation(const std::vector<OptimisationStage>& stages, int alternation,
                                              int max_alternations);
 // The first alternation of the last (sharpest) stage.
@@ -58,7 +59,9 @@ inline constexpr double kLbfgsInitialSigma = 500.0;
 // 200 simplex iterations) with the lower level's steps, the time budget and
 // the coarse-to-fine stages taken from the calibration options; with
 // options.lower_solver = lbfgs, P^0 from kLbfgsInitialSigma instead.
-AlternatingOptions DefaultAlternatingOptions(const CalibrationOptions& options);
+// The fields derived from the schedule (min_alternations, lower_step_scale)
+// follow max_alternations: pass the count here rather than setting it after.
+AlternatingOptions DefaultAlternatingOptions(const CalibrationOptions& options, int max_alternations = 20);
 
 // Builds every (camera, lidar) pair cost with usable scenes at the initial guess.
 // Returns kSuccess, or another status with *why (e.g. a lidar with no usable scene).
