@@ -3,6 +3,7 @@
 // pipeline, not the bias odometry drift adds): perturb, calibrate, recover;
 // the cost is lowest at the truth; data that cannot be calibrated is
 // reported; the CLI's exit codes and output.
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -618,6 +619,76 @@ TEST_F(CalibrateOnSimulation, MotionCorrectionCliWritesEachFramesCorrection) {
   EXPECT_LE(per_camera["left"], 4);
   EXPECT_GT(turned, 0);
  }
+}
+
+// The cost machinery (swathe composition, projection, bilinear sampling,
+// occlusion, B-spline NID and its gradient, L-BFGS, the coarse-to-fine stages)
+// puts the minimum at the truth when the data hold no appearance bias: each
+// point's reflectance is made a decreasing function of the image intensity at
+// its true projection. Measured: 0.02 mm, 0.003 deg. With the simulator's own
+// reflectances the minimum lies 0.1-0.5 deg away (the scene's
+// material-dependent relation between visible and infrared brightness,
+// BENCHMARK.md "Ninth session"). A convention slip fails here: the same
+// reflectances taken half a pixel off (both axes) end 8 mm / 0.051 deg away,
+// a quarter pixel 4 mm / 0.045 deg.
+TEST_F(CalibrateOnSimulation, CostMachineryIsUnbiasedWhenReflectanceFollowsTheImage) {
+  const io::Dataset dataset = io::OpenDataset(DatasetPath());
+  const Eigen::Isometry3d truth = dataset.ground_truth->T_base_lidar.at("lms_rear");
+  CalibrationOptions options;
+  options.scheme = CalibrationScheme::kJoint;
+  options.lower_solver = LowerSolver::kLbfgs;
+  options.cost.histogram.binning = Binning::kBSpline;
+  options.cost.swathe.refresh_border_px = 18.0;  // the fixed point set L-BFGS needs (3.75 % of the width)
+  // Few scenes, far apart: each scan lies in one left-camera swathe only, so
+  // it can be given the intensity of that one image.
+  options.scenes.scenes_per_camera = 5;
+  CalibrationInput input = Load(dataset, options.scenes);
+  const std::string camera_name = input.rig.base_frame;
+  std::erase_if(input.selection.scenes, [&](const Scene& scene) { return scene.camera != camera_name; });
+  std::erase_if(input.rig.cameras, [&](const CameraInfo& camera) { return camera.name != camera_name; });
+  ASSERT_EQ(input.rig.cameras.size(), 1u);
+  const CameraInfo& camera = input.rig.cameras.front();
+  const Eigen::Isometry3d T_camera_lidar = camera.T_base_camera.inverse() * truth;
+  ASSERT_GE(input.selection.scenes.size(), 4u);
+  std::set<TimeUs> seen;
+  std::size_t replaced = 0;
+  for (const Scene& scene : input.selection.scenes) {
+    const cv::Mat& image = input.images.at(camera_name).at(scene.image_t_us).intensity;
+    ASSERT_EQ(image.type(), CV_32FC1);
+    for (const SwatheScan& swathe_scan : scene.scans) {
+      ASSERT_TRUE(seen.insert(swathe_scan.t_us).second) << "scan " << swathe_scan.t_us << " in two swathes";
+      const Eigen::Isometry3d T_camerak_lidar =
+          camera.T_base_camera.inverse() * swathe_scan.T_basek_basej * camera.T_base_camera * T_camera_lidar;
+      LidarScan& scan = input.scans.at(scene.lidar).at(swathe_scan.t_us);
+      for (std::size_t i = 0; i < scan.points.size(); ++i) {
+        LidarPoint& point = scan.points[i];
+        Eigen::Vector2d pixel;
+        if (!camera.model.Project(T_camerak_lidar * Eigen::Vector3d(point.x, point.y, point.z), &pixel, 1.0, 0.2))
+          continue;
+        const int u0 = static_cast<int>(pixel.x()), v0 = static_cast<int>(pixel.y());
+        const double fu = pixel.x() - u0, fv = pixel.y() - v0;
+        const auto at = [&](int v, int u) { return static_cast<double>(image.at<float>(v, u)); };
+        const double intensity = (1 - fv) * ((1 - fu) * at(v0, u0) + fu * at(v0, u0 + 1)) +
+                                 fv * ((1 - fu) * at(v0 + 1, u0) + fu * at(v0 + 1, u0 + 1));
+        point.reflectance = static_cast<float>(0.9 - 0.7 * intensity);
+        ++replaced;
+      }
+    }
+  }
+  ASSERT_GT(replaced, 20000u);
+  // Start 1.4 cm and 0.4 deg away.
+  Vector6d start_offset;
+  start_offset << 0.01, 0.0, -0.01, 0.005, 0.003, -0.004;
+  input.rig.lidars.front().T_base_lidar = ExpSE3(start_offset) * truth;
+  const CalibrationOutcome outcome = Calibrate(input, options, [](const std::string&) {});
+  ASSERT_EQ(outcome.status, CalibrationStatus::kSuccess) << outcome.why;
+  ASSERT_EQ(outcome.result.lidars.size(), 1u);
+  const double t = TranslationError(outcome.result.lidars[0].T_base_lidar, truth);
+  const double r = RotationErrorDegrees(outcome.result.lidars[0].T_base_lidar, truth);
+  std::cout << "[ measured ] reflectance following the image: " << t * 1000.0 << " mm, " << r << " deg from the truth ("
+            << replaced << " points)\n";
+  EXPECT_LT(t, 0.0005);
+  EXPECT_LT(r, 0.015);
 }
 
 // The setting README recommends for a rear push-broom lidar (30 m swathes, near
