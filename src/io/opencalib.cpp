@@ -1,7 +1,6 @@
 #include "io/opencalib.hpp"
 
 #include <charconv>
-#include <random>
 #include <sstream>
 #include <system_error>
 
@@ -11,6 +10,7 @@
 
 #include "io/dataset.hpp"
 #include "io/pcd.hpp"
+#include "io/staged_output.hpp"
 #include "io/yaml_fields.hpp"
 
 namespace scenecal::io {
@@ -19,29 +19,6 @@ namespace fs = std::filesystem;
 using detail::Fail;
 
 namespace {
-
-// Removes a temporary folder unless released (the import finished).
-class TemporaryFolder {
- public:
-  explicit TemporaryFolder(fs::path path) : path_(std::move(path)) { fs::create_directories(path_); }
-  ~TemporaryFolder() {
-    if (!path_.empty()) {
-      std::error_code ignored;
-      fs::remove_all(path_, ignored);
-    }
-  }
-  TemporaryFolder(const TemporaryFolder&) = delete;
-  TemporaryFolder& operator=(const TemporaryFolder&) = delete;
-  const fs::path& path() const { return path_; }
-
- private:
-  fs::path path_;
-};
-
-fs::path SiblingTemporary(const fs::path& target, const std::string& purpose) {
-  std::random_device entropy;
-  return target.parent_path() / fmt::format(".{}.{}-{:08x}", target.filename().string(), purpose, entropy());
-}
 
 }  // namespace
 
@@ -128,14 +105,7 @@ OpenCalibImportSummary ImportOpenCalib(const fs::path& source_dir, const fs::pat
   if (!fs::is_directory(source_dir, error)) {
     Fail(source_dir.string(), "source", "not a directory", "a folder with calib.txt, calib.pcd and calib.jpg or calib.png");
   }
-  fs::path target = fs::absolute(output).lexically_normal();
-  if (!target.has_filename()) target = target.parent_path();
-  if (fs::exists(target, error)) {
-    const bool empty_folder = fs::is_directory(target, error) && fs::is_empty(target, error);
-    if (!empty_folder && !overwrite) {
-      Fail(target.string(), "output", "exists and is not an empty folder", "a new or empty folder (or --force to replace it)");
-    }
-  }
+  const fs::path target = CheckOutputFolder(output, overwrite);
   // Everything is read and checked before anything is written.
   const OpenCalibCalibration calibration = ReadOpenCalibCalibration(source_dir / "calib.txt");
   fs::path image_path;
@@ -172,8 +142,8 @@ OpenCalibImportSummary ImportOpenCalib(const fs::path& source_dir, const fs::pat
     Fail((source_dir / "calib.pcd").string(), "FIELDS", "no intensity field", "an intensity (or reflectance) field");
   }
 
-  const TemporaryFolder temporary(SiblingTemporary(target, "import"));
-  const fs::path& root = temporary.path();
+  StagedOutput staged(target);
+  const fs::path& root = staged.Staging();
   YAML::Node extra;
   extra["source"] = "opencalib";
   extra["source_dir"] = fs::absolute(source_dir).lexically_normal().string();
@@ -192,15 +162,7 @@ OpenCalibImportSummary ImportOpenCalib(const fs::path& source_dir, const fs::pat
   WriteScan(root / "lidars" / "lidar" / (std::to_string(t_us) + ".bin"), cloud.points);
   OpenDataset(root);  // the result must read back as a valid dataset
 
-  // Swap in: the old output (if any) moves aside first, so a failure leaves
-  // either the old folder or the new one, never a mix.
-  fs::path aside;
-  if (fs::exists(target, error)) {
-    aside = SiblingTemporary(target, "old");
-    fs::rename(target, aside);
-  }
-  fs::rename(root, target);
-  if (!aside.empty()) fs::remove_all(aside, error);
+  staged.Commit();
 
   OpenCalibImportSummary summary;
   summary.dataset = target;

@@ -1,0 +1,60 @@
+#include "io/staged_output.hpp"
+
+#include <random>
+#include <string>
+#include <system_error>
+
+#include <fmt/format.h>
+
+#include "io/yaml_fields.hpp"
+
+namespace scenecal::io {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+fs::path SiblingTemporary(const fs::path& target, const std::string& purpose) {
+  std::random_device entropy;
+  return target.parent_path() / fmt::format(".{}.{}-{:08x}", target.filename().string(), purpose, entropy());
+}
+
+}  // namespace
+
+fs::path CheckOutputFolder(const fs::path& output, bool overwrite) {
+  fs::path target = fs::absolute(output).lexically_normal();
+  if (!target.has_filename()) target = target.parent_path();  // "out/" -> "out"
+  std::error_code error;
+  if (fs::exists(target, error)) {
+    const bool empty_folder = fs::is_directory(target, error) && fs::is_empty(target, error);
+    if (!empty_folder && !overwrite) {
+      detail::Fail(target.string(), "output", "exists and is not an empty folder",
+                   "a new or empty folder (or --force to replace it)");
+    }
+  }
+  return target;
+}
+
+StagedOutput::StagedOutput(fs::path target) : target_(std::move(target)), staging_(SiblingTemporary(target_, "import")) {
+  fs::create_directories(staging_);
+}
+
+StagedOutput::~StagedOutput() {
+  if (committed_) return;
+  std::error_code ignored;
+  fs::remove_all(staging_, ignored);
+}
+
+void StagedOutput::Commit() {
+  std::error_code error;
+  fs::path aside;
+  if (fs::exists(target_, error)) {
+    aside = SiblingTemporary(target_, "old");
+    fs::rename(target_, aside);
+  }
+  fs::rename(staging_, target_);
+  committed_ = true;
+  if (!aside.empty()) fs::remove_all(aside, error);
+}
+
+}  // namespace scenecal::io
