@@ -90,10 +90,12 @@ void AddCostOptions(CLI::App* command, CostArguments* args) {
       ->check(kNonNegative)
       ->capture_default_str();
   command->add_option("--refresh-border", args->refresh_border_px,
-                      "Diagnostic: score only the points at least this many pixels inside the image where "
-                      "visibility is refreshed (each stage), a fixed set instead of points entering and leaving at "
-                      "the border; 0 = off. Not better on average (BENCHMARK.md), but it shows how much of a result "
-                      "came from the image border")
+                      "Score only the points at least this many pixels inside the image where visibility is "
+                      "refreshed (each stage): a fixed set instead of points entering and leaving at the border, so "
+                      "the cost is the smooth function L-BFGS's analytic gradient describes; 0 = off. Part of the "
+                      "recommended push-broom setting with --lower-solver lbfgs and 30 m swathes (3.75 % of the "
+                      "image width: 48 px at 1280). With 10 m swathes it was better on one simulated world and worse "
+                      "on two, with the simplex mixed (BENCHMARK.md)")
       ->check(kNonNegative)
       ->capture_default_str();
   command->add_option("--min-range", args->min_range_m,
