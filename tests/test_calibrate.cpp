@@ -315,6 +315,10 @@ TEST_F(CalibrateOnSimulation, CliExitCodes) {
                    &number_text),
             2);
   EXPECT_NE(number_text.find("--threads: -1 is not a number >= 0"), std::string::npos) << number_text;
+  EXPECT_EQ(RunCli("calibrate " + DatasetPath().string() + " --output " + output.string() + " --image-highpass 0.7",
+                   &number_text),
+            2);
+  EXPECT_NE(number_text.find("--image-highpass"), std::string::npos) << number_text;
   // Constant images: a copy of the dataset with every image flat grey; exit 1, no file.
   const fs::path flat = root_ / "flat";
   fs::copy(DatasetPath(), flat, fs::copy_options::recursive);

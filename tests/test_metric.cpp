@@ -8,6 +8,7 @@
 
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "core/metric.hpp"
 #include "core/normalisation.hpp"
@@ -458,6 +459,47 @@ TEST(Normalisation, NamesParseAndOptionsValidate) {
   bad.upper_percentile = 40.0;
   EXPECT_FALSE(bad.IsValid(&why));
   EXPECT_NE(why.find("percentile"), std::string::npos);
+  for (const double fraction : {-0.01, 0.6, std::numeric_limits<double>::quiet_NaN()}) {
+    NormalisationOptions highpass;
+    highpass.intensity_highpass_width_fraction = fraction;
+    EXPECT_FALSE(highpass.IsValid(&why)) << fraction;
+    EXPECT_NE(why.find("high-pass"), std::string::npos) << why;
+  }
+}
+
+TEST(Normalisation, HighPassKeepsTheTextureAndDropsTheRegionsBrightness) {
+  // A brightness ramp across the image (a region's shading, or one material
+  // brighter than another) plus a fine checkerboard texture of +-0.05.
+  cv::Mat image(60, 200, CV_32FC1);
+  for (int r = 0; r < image.rows; ++r) {
+    for (int c = 0; c < image.cols; ++c) {
+      const float texture = ((r / 2 + c / 2) % 2 == 0) ? 0.05f : -0.05f;
+      image.at<float>(r, c) = 0.2f + 0.6f * static_cast<float>(c) / 199.0f + texture;
+    }
+  }
+  const cv::Mat high = HighPassImage(image, 6.0);
+  ASSERT_EQ(high.type(), CV_32FC1);
+  ASSERT_EQ(high.size(), image.size());
+  double lowest = 0, highest = 0;
+  cv::minMaxLoc(high, &lowest, &highest);
+  EXPECT_NEAR(lowest, 0.0, 1e-6);  // the difference's full range maps to [0, 1]
+  EXPECT_NEAR(highest, 1.0, 1e-6);
+  // Away from the borders the ramp is gone: the same texture value gives the
+  // same output on the dark and the bright side (the input differs by 0.48).
+  const float dark = high.at<float>(30, 40), bright = high.at<float>(30, 160);
+  EXPECT_NEAR(dark, bright, 0.02f);
+  EXPECT_GT(high.at<float>(30, 42), high.at<float>(30, 40) + 0.2f);  // the texture stays (+ against - squares)
+  EXPECT_GT(image.at<float>(30, 160) - image.at<float>(30, 40), 0.35f);
+  // A constant image has no texture: 0.5 everywhere. 8-bit input is read as /255; sigma 0 is the input.
+  const cv::Mat flat = HighPassImage(cv::Mat(10, 10, CV_32FC1, cv::Scalar(0.3)), 3.0);
+  EXPECT_FLOAT_EQ(flat.at<float>(5, 5), 0.5f);
+  cv::Mat bytes;
+  image.convertTo(bytes, CV_8U, 255.0);
+  cv::Mat from_bytes_expected;
+  bytes.convertTo(from_bytes_expected, CV_32F, 1.0 / 255.0);
+  EXPECT_LT(cv::norm(HighPassImage(bytes, 6.0), HighPassImage(from_bytes_expected, 6.0), cv::NORM_INF), 1e-6);
+  EXPECT_EQ(HighPassImage(image, 0.0).data, image.data);
+  EXPECT_TRUE(HighPassImage(cv::Mat(2, 2, CV_64FC1), 3.0).empty());
 }
 
 TEST(Normalisation, RankYieldsUniformValues) {

@@ -52,6 +52,14 @@ void AddCostOptions(CLI::App* command, CostArguments* args) {
                        "with --image-channel exg")
           ->check(CLI::IsMember({"none", "minmax", "rank"}))
           ->capture_default_str();
+  command->add_option("--image-highpass", args->image_highpass,
+                      "Subtract each image's local mean (Gaussian, sigma = this fraction of the image width) before "
+                      "scoring, so the texture and edges count and not the brightness of whole regions, whose "
+                      "relation to the lidar's infrared reflectance differs by material; 0 = off. On simulated drives "
+                      "0.023-0.035 (30-45 px at 1280) cut the recommended push-broom setting's offset about threefold "
+                      "(BENCHMARK.md)")
+      ->check(CLI::Range(0.0, 0.5))
+      ->capture_default_str();
   command->add_option("--image-channel", args->image_channel,
                       "What the images contribute: grey (their grey level) or exg (excess green 2G-R-B of colour "
                       "images: vegetation, bright in the lidar's near infrared but dark in grey, becomes bright; "
@@ -154,6 +162,7 @@ void ApplyCostArguments(const CostArguments& args, CalibrationOptions* options) 
   options->thin_margin_px = args.thin_margin_px;
   options->normalisation.reflectance = *ParseNormalisation(args.normalise_reflectance);
   options->normalisation.intensity = *ParseNormalisation(args.normalise_intensity);
+  options->normalisation.intensity_highpass_width_fraction = args.image_highpass;
   const bool intensity_given = args.normalise_intensity_option != nullptr && args.normalise_intensity_option->count() > 0;
   if (args.ImageChannel() == io::ImageChannel::kExcessGreen && !intensity_given) {
     options->normalisation.intensity = Normalisation::kRank;

@@ -26,6 +26,7 @@ struct CostArguments {
   std::string binning = "hard";
   std::string normalise_reflectance = "rank";
   std::string normalise_intensity = "none";
+  double image_highpass = 0.0;  // fraction of the image width; 0 = off
   std::string image_channel = "grey";  // io::ImageChannel: grey | exg
   int min_points = 300;
   int max_scans_per_scene = 0;

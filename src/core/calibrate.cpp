@@ -128,6 +128,10 @@ void RecordCommonSettings(const CalibrationOptions& options, CalibrationResult* 
   }
   settings["normalise_reflectance"] = NormalisationName(options.normalisation.reflectance);
   settings["normalise_intensity"] = NormalisationName(options.normalisation.intensity);
+  settings["intensity_highpass"] =
+      options.normalisation.intensity_highpass_width_fraction > 0.0
+          ? FormatNumber(options.normalisation.intensity_highpass_width_fraction) + " of the image width"
+          : std::string("off");
   settings["scenes_per_camera"] = std::to_string(options.scenes.scenes_per_camera);
   settings["swathe_length_m"] = FormatNumber(options.scenes.swathe_length_m);
   settings["direction"] = SwatheDirectionName(options.scenes.direction);

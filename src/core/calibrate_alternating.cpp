@@ -152,6 +152,9 @@ std::uint64_t AlternatingSetup::Fingerprint(const CalibrationOptions& options,
   digest.Add(static_cast<std::uint64_t>(options.cost.histogram.intensity_bins));
   digest.Add(static_cast<std::uint64_t>(options.cost.metric));
   digest.Add(static_cast<std::uint64_t>(options.cost.histogram.binning));
+  digest.Add(static_cast<std::uint64_t>(options.normalisation.reflectance));
+  digest.Add(static_cast<std::uint64_t>(options.normalisation.intensity));
+  digest.Add(options.normalisation.intensity_highpass_width_fraction);
   const SwatheOptions& swathe = options.cost.swathe;
   digest.Add(static_cast<std::uint64_t>(swathe.occlusion));
   digest.Add(static_cast<std::uint64_t>(swathe.occlusion_cell_px));

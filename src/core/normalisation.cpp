@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 
 namespace scenecal {
 
@@ -31,6 +32,10 @@ bool NormalisationOptions::IsValid(std::string* why) const {
     if (why != nullptr) *why = message;
     return false;
   };
+  if (!(intensity_highpass_width_fraction >= 0.0 && intensity_highpass_width_fraction <= 0.5)) {
+    return fail("intensity high-pass sigma must be a fraction of the image width in [0, 0.5], got " +
+                std::to_string(intensity_highpass_width_fraction));
+  }
   if (!(lower_percentile >= 0.0 && lower_percentile < upper_percentile && upper_percentile <= 100.0)) {
     return fail("percentiles must satisfy 0 <= lower < upper <= 100, got lower " + std::to_string(lower_percentile) +
                 ", upper " + std::to_string(upper_percentile));
@@ -134,6 +139,23 @@ cv::Mat NormaliseImage(const cv::Mat& intensity, Normalisation normalisation, do
       ValueNormaliser::Fit(pixels, normalisation, lower_percentile, upper_percentile);
   cv::Mat out(grey.size(), CV_32FC1);
   normaliser.Apply(pixels, std::span<float>(out.ptr<float>(), out.total()));
+  return out;
+}
+
+cv::Mat HighPassImage(const cv::Mat& intensity, double sigma_px) {
+  const cv::Mat grey = NormaliseImage(intensity, Normalisation::kNone);
+  if (grey.empty() || !(sigma_px > 0.0)) return grey;
+  cv::Mat local_mean;
+  cv::GaussianBlur(grey, local_mean, cv::Size(0, 0), sigma_px, sigma_px, cv::BORDER_REFLECT);
+  const cv::Mat difference = grey - local_mean;
+  double lowest = 0.0, highest = 0.0;
+  cv::minMaxLoc(difference, &lowest, &highest);
+  cv::Mat out;
+  if (!(highest - lowest > 1e-9)) {
+    out = cv::Mat(grey.size(), CV_32FC1, cv::Scalar(0.5));
+  } else {
+    difference.convertTo(out, CV_32F, 1.0 / (highest - lowest), -lowest / (highest - lowest));
+  }
   return out;
 }
 

@@ -33,6 +33,13 @@ struct NormalisationOptions {
   Normalisation intensity = Normalisation::kNone;    // image intensity (already [0, 1])
   double lower_percentile = 1.0;                     // percent, kMinMax only
   double upper_percentile = 99.0;                    // percent, kMinMax only
+  // When > 0, each image first loses its local mean (HighPassImage, Gaussian
+  // sigma = this fraction of the image width; 0 = off): what is left is the
+  // texture and the edges, not the brightness of whole regions, which differs
+  // from the lidar's infrared reflectance material by material (on simulated
+  // drives it moved the recommended push-broom setting's minimum 0.13-0.31
+  // deg off the truth; BENCHMARK.md "Ninth session").
+  double intensity_highpass_width_fraction = 0.0;
 
   bool IsValid(std::string* why) const;
 };
@@ -74,5 +81,12 @@ class ValueNormaliser {
 // value / 255. Any other type (or an empty image) returns an empty Mat.
 cv::Mat NormaliseImage(const cv::Mat& intensity, Normalisation normalisation, double lower_percentile = 1.0,
                        double upper_percentile = 99.0);
+
+// The image (CV_32FC1 in [0, 1], or CV_8UC1 read as value / 255) less its
+// Gaussian-smoothed self (sigma_px pixels, mirrored at the border), mapped
+// linearly from the difference's full range to [0, 1] (0.5 where the image is
+// constant), as CV_32FC1. sigma_px <= 0 returns the input as NormaliseImage
+// with kNone would; any other type (or an empty image) returns an empty Mat.
+cv::Mat HighPassImage(const cv::Mat& intensity, double sigma_px);
 
 }  // namespace scenecal

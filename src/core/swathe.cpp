@@ -97,7 +97,10 @@ SceneSwathe SceneSwathe::Build(const Scene& scene, const CameraInfo& camera, con
       intensity.rows != camera.model.height) {
     return swathe;
   }
-  swathe.image_ = NormaliseImage(intensity, normalisation.intensity, normalisation.lower_percentile,
+  const cv::Mat image = normalisation.intensity_highpass_width_fraction > 0.0
+                            ? HighPassImage(intensity, normalisation.intensity_highpass_width_fraction * intensity.cols)
+                            : intensity;
+  swathe.image_ = NormaliseImage(image, normalisation.intensity, normalisation.lower_percentile,
                                  normalisation.upper_percentile);
   if (swathe.image_.empty()) return swathe;
   swathe.image_sharp_ = swathe.image_;
