@@ -15,9 +15,11 @@
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "core/geometry.hpp"
 #include "core/metric.hpp"
+#include "core/normalisation.hpp"
 #include "core/swathe.hpp"
 #include "io/opencalib.hpp"
 #include "io/pcd.hpp"
@@ -202,6 +204,51 @@ TEST(SwatheKernel, AddHardCountsMatchesTheVisitorPathOnARealFrame) {
     }
   }
   EXPECT_GT(compared, 100000u);
+}
+
+// With an intensity high-pass the sharp (final-stage) image is the high-passed
+// one and a blurred stage blurs the whole image, not the high-passed one.
+TEST(SwatheImage, HighPassIsTheSharpImageAndBlurStartsFromTheWholeImage) {
+  const CameraModel camera = test::MakeKernelTestCamera(CameraModelKind::kPinhole);
+  cv::Mat image(camera.height, camera.width, CV_32FC1);
+  for (int r = 0; r < image.rows; ++r) {
+    for (int c = 0; c < image.cols; ++c) {
+      image.at<float>(r, c) = 0.1f + 0.7f * static_cast<float>(c) / static_cast<float>(image.cols) +
+                              (((r / 3 + c / 3) % 2 == 0) ? 0.08f : -0.08f);
+    }
+  }
+  test::TestSwathe t = test::MakeRandomSwathe(camera, image, 7);
+  NormalisationOptions highpass;
+  highpass.intensity_highpass_width_fraction = 0.05;  // sigma 16 px on the 320 px image
+  std::vector<const LidarScan*> scans;
+  Scene scene;
+  scene.camera = "cam";
+  scene.lidar = "lidar";
+  for (std::size_t j = 0; j < t.scans.size(); ++j) {
+    scene.scans.push_back({static_cast<TimeUs>(j), Eigen::Isometry3d::Identity()});
+    scans.push_back(&t.scans[j]);
+  }
+  SceneSwathe swathe = SceneSwathe::Build(scene, t.camera, image, scans, SwatheOptions{}, highpass);
+  ASSERT_GT(swathe.PointCount(), 0u);
+  const cv::Mat expected_sharp = HighPassImage(image, 0.05 * camera.width);
+  cv::Mat expected_blurred;
+  cv::GaussianBlur(image, expected_blurred, cv::Size(0, 0), 2.5, 2.5, cv::BORDER_REFLECT);
+  const std::vector<cv::Point> pixels = {{40, 30}, {160, 120}, {161, 120}, {290, 200}};
+  const auto expect_image = [&](const cv::Mat& expected, const char* what) {
+    for (const cv::Point& p : pixels) {
+      EXPECT_NEAR(swathe.Sample(static_cast<float>(p.x), static_cast<float>(p.y)), expected.at<float>(p), 1e-5)
+          << what << " at " << p;
+    }
+  };
+  expect_image(expected_sharp, "sharp (high-passed)");
+  swathe.SetImageBlur(2.5);
+  expect_image(expected_blurred, "blurred whole image");
+  swathe.SetImageBlur(0.0);
+  expect_image(expected_sharp, "sharp again");
+  // The two differ where the ramp is: the high-pass drops the region's brightness.
+  EXPECT_GT(std::abs(expected_sharp.at<float>(120, 290) - expected_blurred.at<float>(120, 290)), 0.1f);
+  // Without the option the sharp image is the image itself.
+  EXPECT_NEAR(t.swathe.Sample(290.0f, 200.0f), image.at<float>(200, 290), 1e-6);
 }
 
 }  // namespace

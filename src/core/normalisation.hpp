@@ -33,12 +33,14 @@ struct NormalisationOptions {
   Normalisation intensity = Normalisation::kNone;    // image intensity (already [0, 1])
   double lower_percentile = 1.0;                     // percent, kMinMax only
   double upper_percentile = 99.0;                    // percent, kMinMax only
-  // When > 0, each image first loses its local mean (HighPassImage, Gaussian
-  // sigma = this fraction of the image width; 0 = off): what is left is the
-  // texture and the edges, not the brightness of whole regions, which differs
-  // from the lidar's infrared reflectance material by material (on simulated
-  // drives it moved the recommended push-broom setting's minimum 0.13-0.31
-  // deg off the truth; BENCHMARK.md "Ninth session").
+  // When > 0, the sharp image of the final stages (no blur) loses its local
+  // mean (HighPassImage, Gaussian sigma = this fraction of the image width;
+  // 0 = off): what is left is the texture and the edges, not the brightness of
+  // whole regions, which relates to the lidar's infrared reflectance
+  // differently material by material (on simulated drives that moved the
+  // recommended push-broom setting's minimum 0.13-0.31 deg off the truth;
+  // BENCHMARK.md "Ninth session"). The blurred coarse stages keep the whole
+  // image: its large regions give the wide basin.
   double intensity_highpass_width_fraction = 0.0;
 
   bool IsValid(std::string* why) const;

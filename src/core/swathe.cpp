@@ -97,13 +97,20 @@ SceneSwathe SceneSwathe::Build(const Scene& scene, const CameraInfo& camera, con
       intensity.rows != camera.model.height) {
     return swathe;
   }
-  const cv::Mat image = normalisation.intensity_highpass_width_fraction > 0.0
-                            ? HighPassImage(intensity, normalisation.intensity_highpass_width_fraction * intensity.cols)
-                            : intensity;
-  swathe.image_ = NormaliseImage(image, normalisation.intensity, normalisation.lower_percentile,
-                                 normalisation.upper_percentile);
-  if (swathe.image_.empty()) return swathe;
-  swathe.image_sharp_ = swathe.image_;
+  const cv::Mat plain =
+      NormaliseImage(intensity, normalisation.intensity, normalisation.lower_percentile, normalisation.upper_percentile);
+  if (plain.empty()) return swathe;
+  if (normalisation.intensity_highpass_width_fraction > 0.0) {
+    // The sharp (final) stages score the texture; the blurred coarse stages
+    // keep the whole image, whose large regions give the wide basin.
+    swathe.image_plain_ = plain;
+    swathe.image_sharp_ =
+        NormaliseImage(HighPassImage(intensity, normalisation.intensity_highpass_width_fraction * intensity.cols),
+                       normalisation.intensity, normalisation.lower_percentile, normalisation.upper_percentile);
+  } else {
+    swathe.image_sharp_ = plain;
+  }
+  swathe.image_ = swathe.image_sharp_;
   double min_value = 0.0, max_value = 0.0;
   cv::minMaxLoc(swathe.image_, &min_value, &max_value);
   swathe.image_constant_ = !(max_value - min_value > 1e-6);
@@ -141,8 +148,10 @@ SceneSwathe SceneSwathe::Build(const Scene& scene, const CameraInfo& camera, con
   swathe.visible_.assign(swathe.x_.size(), 1);
   // Blurring keeps the image within these bounds (a convex combination of its values).
   swathe.values_bounded_ = swathe.image_.type() == CV_32FC1 && AllBounded(swathe.reflectance01_);
-  for (int v = 0; v < swathe.image_.rows && swathe.values_bounded_; ++v) {
-    swathe.values_bounded_ = AllBounded({swathe.image_.ptr<float>(v), static_cast<std::size_t>(swathe.image_.cols)});
+  for (const cv::Mat* image : {&swathe.image_sharp_, &swathe.image_plain_}) {
+    for (int v = 0; v < image->rows && swathe.values_bounded_; ++v) {
+      swathe.values_bounded_ = AllBounded({image->ptr<float>(v), static_cast<std::size_t>(image->cols)});
+    }
   }
   return swathe;
 }
@@ -159,7 +168,8 @@ void SceneSwathe::SetImageBlur(double sigma_px) {
     return;
   }
   cv::Mat blurred;
-  cv::GaussianBlur(image_sharp_, blurred, cv::Size(0, 0), sigma, sigma, cv::BORDER_REFLECT);
+  const cv::Mat& whole = image_plain_.empty() ? image_sharp_ : image_plain_;
+  cv::GaussianBlur(whole, blurred, cv::Size(0, 0), sigma, sigma, cv::BORDER_REFLECT);
   image_ = blurred;
 }
 

@@ -224,6 +224,8 @@ class SceneSwathe {
 
   // Gaussian blur of the working image (pixels, 1-sigma); 0 restores the sharp
   // image. For coarse-to-fine smoothing between optimiser runs, never inside one.
+  // With an intensity high-pass (NormalisationOptions) the sharp image is the
+  // high-passed one and a blur applies to the whole (plain) image.
   void SetImageBlur(double sigma_px);
 
   // Re-poses the scans with the trajectory corrected by `correction`
@@ -247,7 +249,8 @@ class SceneSwathe {
   TimeUs image_t_us_ = 0;
   ProjectionParams projection_;
   cv::Mat image_;        // CV_32FC1, normalised; the working image (possibly blurred)
-  cv::Mat image_sharp_;  // CV_32FC1, normalised, never blurred
+  cv::Mat image_sharp_;  // CV_32FC1, normalised, never blurred (high-passed when asked)
+  cv::Mat image_plain_;  // with a high-pass only: the normalised image the blurred stages start from
   double blur_sigma_px_ = 0.0;  // the blur of image_ (pixels, 1-sigma; 0 = sharp)
   bool image_constant_ = false;
   bool reflectance_constant_ = false;
