@@ -55,9 +55,10 @@ void AddCostOptions(CLI::App* command, CostArguments* args) {
   command->add_option("--image-highpass", args->image_highpass,
                       "Subtract each image's local mean (Gaussian, sigma = this fraction of the image width) before "
                       "scoring, so the texture and edges count and not the brightness of whole regions, whose "
-                      "relation to the lidar's infrared reflectance differs by material; 0 = off. On simulated drives "
-                      "0.023-0.035 (30-45 px at 1280) cut the recommended push-broom setting's offset about threefold "
-                      "(BENCHMARK.md)")
+                      "relation to the lidar's infrared reflectance differs by material; 0 = off. Only in the "
+                      "stages without blur (the blurred coarse stages keep the whole image). With the recommended "
+                      "push-broom setting and exact odometry 0.0234 (30 px at 1280) took the median rotation error "
+                      "from 0.14-0.31 to 0.03-0.11 deg; with drifting odometry it made things worse (BENCHMARK.md)")
       ->check(CLI::Range(0.0, 0.5))
       ->capture_default_str();
   command->add_option("--image-channel", args->image_channel,
