@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include <Eigen/SVD>
+
 namespace scenecal {
 
 Eigen::Matrix3d RotationFromRollPitchYaw(double roll, double pitch, double yaw) {
@@ -132,6 +134,11 @@ bool IsRigid(const Eigen::Matrix4d& m, double tolerance) {
   if (std::abs(r.determinant() - 1.0) > tolerance) return false;
   const Eigen::RowVector4d last(0, 0, 0, 1);
   return (m.row(3) - last).cwiseAbs().maxCoeff() <= tolerance;
+}
+
+Eigen::Matrix3d NearestRotation(const Eigen::Matrix3d& matrix) {
+  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(matrix, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  return svd.matrixU() * svd.matrixV().transpose();
 }
 
 }  // namespace scenecal

@@ -56,6 +56,10 @@ double RotationErrorDegrees(const Eigen::Isometry3d& estimate, const Eigen::Isom
 // True when the linear part is a rotation within tolerance (orthonormal, det +1).
 bool IsRigid(const Eigen::Matrix4d& matrix, double tolerance = 1e-6);
 
+// The rotation nearest (Frobenius) to a matrix that is one up to printing
+// precision (check IsRigid first): U V^T of its SVD.
+Eigen::Matrix3d NearestRotation(const Eigen::Matrix3d& matrix);
+
 constexpr double kPi = 3.14159265358979323846;
 constexpr double DegreesFromRadians(double radians) { return radians * 180.0 / kPi; }
 constexpr double RadiansFromDegrees(double degrees) { return degrees * kPi / 180.0; }

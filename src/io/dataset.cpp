@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <array>
 #include <bit>
-#include <charconv>
 #include <cmath>
 #include <cstring>
 #include <fstream>
@@ -201,9 +200,7 @@ std::string_view Trim(std::string_view text) {
 template <typename T>
 bool ParseWhole(std::string_view text, T* value) {
   text = Trim(text);
-  if (text.empty()) return false;
-  const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), *value);
-  return error == std::errc() && end == text.data() + text.size();
+  return !text.empty() && detail::ParseWholeToken(text, value);
 }
 
 // ---- images ------------------------------------------------------------------
@@ -344,8 +341,7 @@ bool IsValidSensorName(const std::string& name) {
 std::optional<TimeUs> ParseTimestamp(const std::string& text) {
   TimeUs value = 0;
   if (text.empty() || text.front() == ' ' || text.back() == ' ') return std::nullopt;
-  const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
-  if (error != std::errc() || end != text.data() + text.size()) return std::nullopt;
+  if (!detail::ParseWholeToken(text, &value)) return std::nullopt;
   return value;
 }
 

@@ -1,7 +1,6 @@
 #include "io/kitti.hpp"
 
 #include <algorithm>
-#include <charconv>
 #include <chrono>
 #include <cmath>
 #include <map>
@@ -10,7 +9,6 @@
 #include <stdexcept>
 #include <system_error>
 
-#include <Eigen/SVD>
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
 
@@ -54,8 +52,7 @@ std::vector<std::string> Lines(const std::string& text) {
 std::string Shorten(const std::string& text) { return text.size() > 40 ? text.substr(0, 40) + "..." : text; }
 
 bool ParseDouble(const std::string& token, double* value) {
-  const auto [end, error] = std::from_chars(token.data(), token.data() + token.size(), *value);
-  return error == std::errc() && end == token.data() + token.size() && std::isfinite(*value);
+  return detail::ParseWholeToken(token, value) && std::isfinite(*value);
 }
 
 // ---- calibration files: "KEY: values" lines ---------------------------------
@@ -116,9 +113,7 @@ class KeyValueFile {
       Fail(file_, fmt::format("line {} {}", entries_.at(key).line, key), "not a rotation matrix",
            "a row-major 3x3 rotation (orthonormal, det +1)");
     }
-    const Eigen::JacobiSVD<Eigen::Matrix3d> svd(matrix.topLeftCorner<3, 3>(),
-                                                Eigen::ComputeFullU | Eigen::ComputeFullV);
-    return svd.matrixU() * svd.matrixV().transpose();
+    return NearestRotation(matrix.topLeftCorner<3, 3>());
   }
 
   int Line(const std::string& key) const { return entries_.at(key).line; }

@@ -1,10 +1,8 @@
 #include "io/opencalib.hpp"
 
-#include <charconv>
 #include <sstream>
 #include <system_error>
 
-#include <Eigen/SVD>
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
 
@@ -59,8 +57,7 @@ OpenCalibCalibration ReadOpenCalibCalibration(const fs::path& calib_txt) {
     std::string token;
     while (numbers >> token) {
       double value = 0;
-      const auto [end, error] = std::from_chars(token.data(), token.data() + token.size(), value);
-      if (error != std::errc() || end != token.data() + token.size() || !std::isfinite(value)) {
+      if (!detail::ParseWholeToken(token, &value) || !std::isfinite(value)) {
         Fail(file, where + " " + key, "'" + token + "'", "finite numbers");
       }
       values.push_back(value);
@@ -93,8 +90,7 @@ OpenCalibCalibration ReadOpenCalibCalibration(const fs::path& calib_txt) {
   // calib.txt prints about 6 significant digits, so R is orthonormal only to
   // ~1e-6; accept 1e-3 and snap to the nearest rotation (SVD).
   if (!IsRigid(matrix, 1e-3)) Fail(file, "T", "the 3x3 block is not a rotation", "[R | t] with R orthonormal, det +1");
-  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(matrix.topLeftCorner<3, 3>(), Eigen::ComputeFullU | Eigen::ComputeFullV);
-  calibration.T_camera_lidar.linear() = svd.matrixU() * svd.matrixV().transpose();
+  calibration.T_camera_lidar.linear() = NearestRotation(matrix.topLeftCorner<3, 3>());
   calibration.T_camera_lidar.translation() = matrix.topRightCorner<3, 1>();
   return calibration;
 }

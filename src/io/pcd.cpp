@@ -1,6 +1,5 @@
 #include "io/pcd.hpp"
 
-#include <charconv>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -43,12 +42,6 @@ std::vector<std::string_view> Tokens(std::string_view line) {
     if (pos > start) tokens.push_back(line.substr(start, pos - start));
   }
   return tokens;
-}
-
-template <typename T>
-bool ParseToken(std::string_view token, T* value) {
-  const auto [end, error] = std::from_chars(token.data(), token.data() + token.size(), *value);
-  return error == std::errc() && end == token.data() + token.size();
 }
 
 double ReadValue(const unsigned char* bytes, const PcdField& field) {
@@ -110,7 +103,7 @@ PcdCloud ParsePcd(const std::string& bytes, const std::string& name) {
     const std::size_t values = tokens.size() - 1;
     const auto number = [&](std::size_t i, std::size_t max_value) {
       std::size_t value = 0;
-      if (!ParseToken(tokens[i], &value) || value > max_value) {
+      if (!detail::ParseWholeToken(tokens[i], &value) || value > max_value) {
         fail(where, fmt::format("'{}'", tokens[i]), fmt::format("a whole number up to {}", max_value));
       }
       return value;
@@ -293,7 +286,7 @@ PcdCloud ParsePcd(const std::string& bytes, const std::string& name) {
       for (std::size_t f = 0; f < fields.size(); ++f) {
         double value = 0;
         const std::string_view token = tokens[first_token[f]];
-        if (!ParseToken(token, &value)) {
+        if (!detail::ParseWholeToken(token, &value)) {
           fail(fmt::format("line {} field {}", line_number, fields[f].name), fmt::format("'{}'", token), "a number");
         }
         values[i * fields.size() + f] = value;

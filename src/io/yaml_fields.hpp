@@ -3,10 +3,12 @@
 // expected. Not part of the public io API.
 #pragma once
 
+#include <charconv>
 #include <filesystem>
 #include <initializer_list>
 #include <string>
 #include <string_view>
+#include <system_error>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -19,6 +21,13 @@ namespace scenecal::io::detail {
 // Throws InputError "<file>: <where>: <what>; expected <expected>".
 [[noreturn]] void Fail(const std::string& file, const std::string& where, const std::string& what,
                        const std::string& expected);
+
+// Parses the whole token as a number (nothing before or after it, no spaces).
+template <typename T>
+bool ParseWholeToken(std::string_view token, T* value) {
+  const auto [end, error] = std::from_chars(token.data(), token.data() + token.size(), *value);
+  return error == std::errc() && end == token.data() + token.size();
+}
 
 // Reads a whole file into memory, refusing files larger than max_bytes (so a
 // wrong path to a huge file cannot exhaust memory). Missing file -> InputError.
