@@ -189,9 +189,11 @@ PairCost BuildPairCost(const CalibrationInput& input, const CameraInfo& camera, 
       if (scan == scans_it->second.end()) return;
       scans.push_back(&scan->second);
     }
+    // Once per frame: the swathes of its range bands and the trimming pass share them.
+    const SwatheImages images = SwatheImages::Prepare(image->second.intensity, options.normalisation);
     const auto build = [&](const Scene& kept_scene, const std::vector<const LidarScan*>& kept_scans) {
       if (options.range_split_m <= 0.0) {
-        swathes[s] = {SceneSwathe::Build(kept_scene, camera, image->second.intensity, kept_scans, options.cost.swathe,
+        swathes[s] = {SceneSwathe::Build(kept_scene, camera, images, kept_scans, options.cost.swathe,
                                          options.normalisation)};
         return;
       }
@@ -201,13 +203,13 @@ PairCost BuildPairCost(const CalibrationInput& input, const CameraInfo& camera, 
       swathes[s] = {};
       for (const SwatheOptions* band : {&near, &far}) {
         if (!(band->max_range_m > band->min_range_m)) continue;  // the band lies outside the range window
-        swathes[s].push_back(SceneSwathe::Build(kept_scene, camera, image->second.intensity, kept_scans, *band,
+        swathes[s].push_back(SceneSwathe::Build(kept_scene, camera, images, kept_scans, *band,
                                                 options.normalisation));
       }
     };
     if (options.swathe_trim_margin_m < 0.0 || lidar_info == nullptr) return build(scene, scans);
     SceneSwathe whole =
-        SceneSwathe::Build(scene, camera, image->second.intensity, scans, options.cost.swathe, options.normalisation);
+        SceneSwathe::Build(scene, camera, images, scans, options.cost.swathe, options.normalisation);
     const std::vector<std::size_t> per_scan =
         whole.CountProjectedPerScan(camera.T_base_camera.inverse() * lidar_info->T_base_lidar);
     double first_m = std::numeric_limits<double>::infinity(), last_m = -first_m;

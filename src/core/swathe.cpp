@@ -85,7 +85,31 @@ bool AllBounded(std::span<const float> values) {
 
 }  // namespace
 
+SwatheImages SwatheImages::Prepare(const cv::Mat& intensity, const NormalisationOptions& normalisation) {
+  SwatheImages images;
+  const cv::Mat plain =
+      NormaliseImage(intensity, normalisation.intensity, normalisation.lower_percentile, normalisation.upper_percentile);
+  if (plain.empty()) return images;
+  if (normalisation.intensity_highpass_width_fraction > 0.0) {
+    // The sharp (final) stages score the texture; the blurred coarse stages
+    // keep the whole image, whose large regions give the wide basin.
+    images.plain = plain;
+    images.sharp =
+        NormaliseImage(HighPassImage(intensity, normalisation.intensity_highpass_width_fraction * intensity.cols),
+                       normalisation.intensity, normalisation.lower_percentile, normalisation.upper_percentile);
+  } else {
+    images.sharp = plain;
+  }
+  return images;
+}
+
 SceneSwathe SceneSwathe::Build(const Scene& scene, const CameraInfo& camera, const cv::Mat& intensity,
+                               const std::vector<const LidarScan*>& scans, const SwatheOptions& options,
+                               const NormalisationOptions& normalisation) {
+  return Build(scene, camera, SwatheImages::Prepare(intensity, normalisation), scans, options, normalisation);
+}
+
+SceneSwathe SceneSwathe::Build(const Scene& scene, const CameraInfo& camera, const SwatheImages& images,
                                const std::vector<const LidarScan*>& scans, const SwatheOptions& options,
                                const NormalisationOptions& normalisation) {
   SceneSwathe swathe;
@@ -93,23 +117,12 @@ SceneSwathe SceneSwathe::Build(const Scene& scene, const CameraInfo& camera, con
   swathe.lidar_ = scene.lidar;
   swathe.image_t_us_ = scene.image_t_us;
   swathe.scan_begin_.push_back(0);
-  if (scans.size() != scene.scans.size() || intensity.empty() || intensity.cols != camera.model.width ||
-      intensity.rows != camera.model.height) {
+  if (scans.size() != scene.scans.size() || images.sharp.empty() || images.sharp.cols != camera.model.width ||
+      images.sharp.rows != camera.model.height) {
     return swathe;
   }
-  const cv::Mat plain =
-      NormaliseImage(intensity, normalisation.intensity, normalisation.lower_percentile, normalisation.upper_percentile);
-  if (plain.empty()) return swathe;
-  if (normalisation.intensity_highpass_width_fraction > 0.0) {
-    // The sharp (final) stages score the texture; the blurred coarse stages
-    // keep the whole image, whose large regions give the wide basin.
-    swathe.image_plain_ = plain;
-    swathe.image_sharp_ =
-        NormaliseImage(HighPassImage(intensity, normalisation.intensity_highpass_width_fraction * intensity.cols),
-                       normalisation.intensity, normalisation.lower_percentile, normalisation.upper_percentile);
-  } else {
-    swathe.image_sharp_ = plain;
-  }
+  swathe.image_sharp_ = images.sharp;
+  swathe.image_plain_ = images.plain;
   swathe.image_ = swathe.image_sharp_;
   double min_value = 0.0, max_value = 0.0;
   cv::minMaxLoc(swathe.image_, &min_value, &max_value);

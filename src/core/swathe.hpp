@@ -70,6 +70,18 @@ std::vector<Eigen::Isometry3d> CorrectSwatheMotion(const std::vector<TimeUs>& sc
                                                    const std::vector<Eigen::Isometry3d>& T_basek_basej,
                                                    TimeUs image_t_us, const SwatheMotionCorrection& correction);
 
+// The images a swathe scores, prepared once per camera frame and shared (not
+// copied: swathes only read them) by the swathes built from that frame (range
+// bands, the trimming pass).
+struct SwatheImages {
+  cv::Mat sharp;  // CV_32FC1, normalised (high-passed when asked): the final, unblurred stages' image
+  cv::Mat plain;  // with a high-pass only: the normalised whole image the blurred stages start from
+
+  // From a frame's GreyImage intensity (CV_32FC1 in [0, 1]) with
+  // normalisation.intensity (and its high-pass). Empty on an unusable image.
+  static SwatheImages Prepare(const cv::Mat& intensity, const NormalisationOptions& normalisation);
+};
+
 struct SwatheOptions {
   double min_range_m = 1.0;    // lidar points nearer than this (lidar frame) are dropped (vehicle body, noise)
   double max_range_m = 100.0;  // and farther than this
@@ -109,6 +121,11 @@ class SceneSwathe {
   // normalisation.intensity and reflectances with normalisation.reflectance.
   // A size mismatch leaves an empty swathe (PointCount() == 0).
   static SceneSwathe Build(const Scene& scene, const CameraInfo& camera, const cv::Mat& intensity,
+                           const std::vector<const LidarScan*>& scans, const SwatheOptions& options,
+                           const NormalisationOptions& normalisation);
+  // The same with the frame's images already prepared (SwatheImages::Prepare
+  // with the same normalisation), for several swathes of one frame.
+  static SceneSwathe Build(const Scene& scene, const CameraInfo& camera, const SwatheImages& images,
                            const std::vector<const LidarScan*>& scans, const SwatheOptions& options,
                            const NormalisationOptions& normalisation);
 
