@@ -4,6 +4,7 @@
 // plane with a smooth albedo seen by a distorted (radtan) camera, two scans of
 // lidar points on it whose reflectance is a monotone function of the albedo.
 #include <cmath>
+#include <cstdint>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -208,6 +209,53 @@ TEST(GradientSolver, LbfgsRecoversTheTruthWithFewerEvaluationsThanTheSimplex) {
   EXPECT_LT(lbfgs_t, 0.003);
   EXPECT_LT(lbfgs_r, 0.1);
   EXPECT_LT(lbfgs_summary.evaluations, simplex_summary.evaluations);
+}
+
+// A bowl as flat as NID near its minimum, with a cost's rounding jitter: 0.97 +
+// 1e-6 x |e / width|^2 (e = Log(T * T_min^-1), width one parameter scale per
+// axis), started two widths away along every axis. Ceres' first step is the
+// gradient itself when its max norm is below 1: ~4e-6 scaled units, gaining
+// ~1e-11, below the jitter, and the run ended where it started (as joint did
+// 0.23 deg from the truth on world 1). With the cost normalised by the start's
+// gradient the first step is one scale long.
+TEST(GradientSolver, LbfgsCrossesAFlatBowlFromItsFirstStep) {
+  const Eigen::Isometry3d T_min = TransformFromTuple((Vector6d() << 0.4, -1.1, 2.0, 0.1, -0.2, 1.5).finished());
+  GradientSolverOptions options;
+  options.initial_step_translation_m = 0.005;
+  options.initial_step_rotation_rad = RadiansFromDegrees(0.1);
+  Vector6d width;
+  width << Eigen::Vector3d::Constant(options.initial_step_translation_m),
+      Eigen::Vector3d::Constant(options.initial_step_rotation_rad);
+  // Plus a deterministic jitter of +-1e-9, as a sum over ~1e6 single-precision
+  // samples has (measured on NID: ~2e-9 between points 1e-4 deg apart).
+  const auto bowl = [&](const Eigen::Isometry3d& T) {
+    const Vector6d e = LogSE3(T * T_min.inverse()).cwiseQuotient(width);
+    std::uint64_t hash = 1469598103934665603ull;
+    for (int k = 0; k < 6; ++k) hash = (hash ^ static_cast<std::uint64_t>(std::llround(e[k] * 1e9))) * 1099511628211ull;
+    const double jitter = 2e-9 * (static_cast<double>(hash >> 11) / 9007199254740992.0 - 0.5);
+    return 0.97 + 1e-6 * e.squaredNorm() + jitter;
+  };
+  const CostWithGradient cost = [&](const Eigen::Isometry3d& T, Vector6d* gradient) {
+    if (gradient != nullptr) {
+      // The exact gradient: an analytic one does not see the rounding either.
+      const auto smooth = [&](const Eigen::Isometry3d& X) {
+        return 1e-6 * LogSE3(X * T_min.inverse()).cwiseQuotient(width).squaredNorm();
+      };
+      *gradient = CentralDifferenceGradient(smooth, T, options.transform_update, options.pivot_source,
+                                            Vector6d::Constant(1e-6));
+    }
+    return bowl(T);
+  };
+  const Eigen::Isometry3d start = ExpSE3(2.0 * width) * T_min;
+  Eigen::Isometry3d T = start;
+  const GradientSolverSummary summary = MinimiseWithGradient(cost, options, &T);
+  std::printf("%s\n", summary.BriefReport().c_str());
+  EXPECT_TRUE(summary.converged) << summary.termination;
+  EXPECT_GT(summary.iterations, 1);
+  EXPECT_NEAR(summary.initial_value, bowl(start), 1e-14);  // reported unscaled
+  EXPECT_NEAR(summary.final_value, bowl(T), 1e-14);
+  const Vector6d left = LogSE3(T * T_min.inverse()).cwiseQuotient(width);
+  EXPECT_LT(left.cwiseAbs().maxCoeff(), 0.05) << left.transpose();
 }
 
 }  // namespace

@@ -130,7 +130,37 @@ class TransformCost final : public ceres::FirstOrderFunction {
   TransformCost(const TransformState* state, const CostWithGradient* cost, EvaluationCounts* counts)
       : state_(state), cost_(cost), counts_(counts) {}
   int NumParameters() const override { return 6; }
+
+  // Evaluates the start (x = 0) with its gradient and from then on reports
+  // the cost multiplied by 1 / (the start's largest scaled gradient), so that
+  // the first iteration's step (Ceres: the gradient itself, when its max norm
+  // is below 1) is one typical step (the parameter scales) along the steepest
+  // axis. Without it the first step was |gradient| scaled units: NID gradients
+  // are ~1e-5 per typical step near a minimum, so the first step gained less
+  // than the cost's rounding, and the following steps, sized by Ceres from
+  // that gain, stayed as small (world 1: joint stuck 0.233 deg from the truth;
+  // BENCHMARK.md "Tenth session"). The L-BFGS directions and the later steps
+  // do not depend on a constant factor on the cost.
+  void NormaliseAtStart() {
+    double value = 0.0;
+    Vector6d gradient = Vector6d::Zero();
+    const Vector6d zero = Vector6d::Zero();
+    if (!Evaluate(zero.data(), &value, gradient.data())) return;  // Ceres meets the failure again
+    start_value_ = value;
+    start_gradient_ = gradient;
+    has_start_ = true;
+    const double largest = gradient.cwiseAbs().maxCoeff();
+    if (largest > 0.0 && std::isfinite(largest)) value_scale_ = 1.0 / largest;
+  }
+  double ValueScale() const { return value_scale_; }
+
   bool Evaluate(const double* x, double* value, double* gradient) const override {
+    if (has_start_ && gradient != nullptr && Eigen::Map<const Vector6d>(x).isZero(0.0)) {
+      *value = value_scale_ * start_value_;  // Ceres' own first evaluation: already known
+      Eigen::Map<Vector6d> out(gradient);
+      out = value_scale_ * start_gradient_;
+      return true;
+    }
     const bool first = counts_->evaluations++ == 0;
     Vector6d local = Vector6d::Zero();
     if (gradient != nullptr) ++counts_->gradient_evaluations;
@@ -140,9 +170,10 @@ class TransformCost final : public ceres::FirstOrderFunction {
       if (first) counts_->start_not_finite = true;
       return false;  // Ceres backs off the step
     }
+    *value *= value_scale_;
     if (gradient != nullptr) {
       Eigen::Map<Vector6d> out(gradient);
-      out = state_->Scale().cwiseProduct(local);
+      out = value_scale_ * state_->Scale().cwiseProduct(local);
     }
     return true;
   }
@@ -151,6 +182,10 @@ class TransformCost final : public ceres::FirstOrderFunction {
   const TransformState* state_;
   const CostWithGradient* cost_;
   EvaluationCounts* counts_;
+  double value_scale_ = 1.0;  // constant within a run (set before Ceres starts)
+  bool has_start_ = false;
+  double start_value_ = 0.0;     // unscaled cost at x = 0
+  Vector6d start_gradient_;      // unscaled (in value) gradient at x = 0, scaled parameters
 };
 
 // Ends the solve (successfully: the state so far is kept) once the caller asks.
@@ -180,7 +215,10 @@ GradientSolverSummary MinimiseWithGradient(const CostWithGradient& cost, const G
   EvaluationCounts counts;
   StopCallback stop_callback(&stop_requested);
   // The problem takes ownership of the function and the manifold.
-  ceres::GradientProblem problem(new TransformCost(&state, &cost, &counts), new TransformManifold(&state));
+  auto* function = new TransformCost(&state, &cost, &counts);
+  function->NormaliseAtStart();
+  const double value_scale = function->ValueScale();
+  ceres::GradientProblem problem(function, new TransformManifold(&state));
   ceres::GradientProblemSolver::Options solver_options;
   solver_options.line_search_direction_type = ceres::LBFGS;
   solver_options.max_num_iterations = options.max_iterations;
@@ -204,10 +242,10 @@ GradientSolverSummary MinimiseWithGradient(const CostWithGradient& cost, const G
   summary.evaluations = counts.evaluations.load();
   summary.gradient_evaluations = counts.gradient_evaluations.load();
   summary.start_not_finite = counts.start_not_finite;
-  summary.initial_value = ceres_summary.initial_cost;
-  summary.final_value = ceres_summary.final_cost;
-  summary.converged = ceres_summary.termination_type == ceres::CONVERGENCE;
+  summary.initial_value = ceres_summary.initial_cost / value_scale;
+  summary.final_value = ceres_summary.final_cost / value_scale;
   summary.stopped = stop_callback.stopped;
+  summary.converged = ceres_summary.termination_type == ceres::CONVERGENCE;
   summary.termination = stop_callback.stopped ? "stop requested (e.g. time budget)" : ceres_summary.message;
   summary.time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_time).count();
   return summary;

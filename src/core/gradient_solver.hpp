@@ -38,7 +38,8 @@ bool ParseLowerSolver(const std::string& name, LowerSolver* solver);  // inverse
 struct GradientSolverOptions {
   int max_iterations = 100;
   // Stop when |df| / f falls below this, or the gradient's max norm (in the
-  // scaled parameters) below gradient_tolerance, or the step below parameter_tolerance.
+  // scaled parameters, relative to the start's) below gradient_tolerance, or
+  // the step below parameter_tolerance.
   // NID near 0.95 changes by ~1e-4 along a push-broom tilt valley; at 1e-8 a
   // run could end on one short step while the cost still fell toward the
   // minimum (0.285 instead of 0.159 deg on one start, BENCHMARK.md "Ninth session").
