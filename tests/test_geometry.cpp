@@ -76,6 +76,18 @@ TEST(Geometry, ExpLogRoundTrip) {
   EXPECT_LT(MatrixDistance(ExpSE3(LogSE3(half_turn)), half_turn), 1e-8);
 }
 
+TEST(Geometry, AdjointMovesATwistBetweenFrames) {
+  const Eigen::Isometry3d T = TransformFromTuple((Vector6d() << 0.3, -1.2, 4.1, 0.4, -1.1, 2.0).finished());
+  const Vector6d twist = (Vector6d() << 0.02, -0.01, 0.03, 0.004, 0.006, -0.002).finished();
+  const Eigen::Isometry3d conjugated = T * ExpSE3(twist) * T.inverse();
+  const Eigen::Isometry3d moved = ExpSE3(AdjointSE3(T) * twist);
+  EXPECT_LT((conjugated.matrix() - moved.matrix()).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_LT((AdjointSE3(T.inverse()) * AdjointSE3(T) - Matrix6d::Identity()).cwiseAbs().maxCoeff(), 1e-12);
+  // A turn about the source frame's origin is a turn plus a lever-arm shift in the target frame.
+  const Vector6d turn = (Vector6d() << 0, 0, 0, 0.001, 0, 0).finished();
+  EXPECT_NEAR((AdjointSE3(T) * turn).head<3>().norm(), 0.001 * T.translation().cross(T.linear().col(0)).norm(), 1e-12);
+}
+
 TEST(Geometry, GroupLaws) {
   std::mt19937 rng(4);
   for (int i = 0; i < 500; ++i) {

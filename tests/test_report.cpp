@@ -403,7 +403,9 @@ TEST(CostSlices, AlternationSlicesUseTheHeldUpperEstimateAndPenalty) {
     // The cost is zero, so the centre sample is the penalty to the upper estimate held at i.
     const Eigen::Isometry3d held = i == 0 ? initial : history[i - 1].T_camera_lidar_upper[0];
     const Vector6d d = DifferenceLog(history[i].T_camera_lidar_lower[0], held);
-    const double expected = d.dot(PenaltyInformation(history[i].sigma_translation_m, history[i].sigma_rotation_rad) * d);
+    const double expected = d.dot(PairPenaltyInformation(history[i].sigma_translation_m, history[i].sigma_rotation_rad,
+                                                         options.penalty_frame, held) *
+                                  d);
     EXPECT_NEAR(sets[i].slices[0].costs[2], expected, 1e-12);
     EXPECT_GT(expected, 0.0);
   }

@@ -38,6 +38,7 @@ void ProcessGroup::AbortAll(int exit_code) {
 AlternatingOptions MakeAlternatingOptions(const CalibrationOptions& options, const AlternatingArguments& arguments) {
   AlternatingOptions alternating = DefaultAlternatingOptions(options, arguments.alternations);
   alternating.covariance_shrink = arguments.shrink;
+  ParsePenaltyFrame(arguments.penalty_frame, &alternating.penalty_frame);  // the CLI checked the name
   if (arguments.sigma0_translation_m) alternating.initial_sigma_translation_m = *arguments.sigma0_translation_m;
   if (arguments.sigma0_rotation_rad) alternating.initial_sigma_rotation_rad = *arguments.sigma0_rotation_rad;
   alternating.stop_translation_m = arguments.stop_translation_m;

@@ -15,6 +15,7 @@ struct AlternatingArguments {
   std::string backend = "threads";  // threads | mpi
   int alternations = 20;
   double shrink = 0.5;
+  std::string penalty_frame = "lidar";  // PenaltyFrameName
   // Not given: DefaultAlternatingOptions' (the paper's 5 m / 5 rad with the simplex, looser with lbfgs).
   std::optional<double> sigma0_translation_m;
   std::optional<double> sigma0_rotation_rad;

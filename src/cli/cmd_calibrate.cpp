@@ -410,6 +410,12 @@ CommandRunner AddCalibrateCommand(CLI::App& app) {
   command->add_option("--shrink", alt.shrink, "alt: covariance factor w of the penalty, P(i+1) = w P(i), in (0, 1)")
       ->check(CLI::Range(1e-6, 0.999999))
       ->capture_default_str();
+  command->add_option("--penalty-frame", alt.penalty_frame,
+                      "alt: where the penalty's sigmas hold: lidar (the lidar's position and its turn about its own "
+                      "origin) or camera (the camera-frame difference itself, where a turn of a lidar metres away "
+                      "also pays its lever-arm shift at the translation sigma and is held back)")
+      ->check(CLI::IsMember({"lidar", "camera"}))
+      ->capture_default_str();
   command->add_option("--sigma0-translation", alt.sigma0_translation_m,
                       "alt: initial penalty sigma, metres. Default: 5 (the paper) with the simplex lower level, 500 "
                       "with --lower-solver lbfgs, whose lower levels the paper's value already holds near the upper "

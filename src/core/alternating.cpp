@@ -35,6 +35,32 @@ bool AlternatingOptions::IsValid(std::string* why) const {
   return true;
 }
 
+const char* PenaltyFrameName(PenaltyFrame frame) {
+  switch (frame) {
+    case PenaltyFrame::kLidar: return "lidar";
+    case PenaltyFrame::kCamera: return "camera";
+  }
+  return "unknown";
+}
+
+bool ParsePenaltyFrame(const std::string& name, PenaltyFrame* frame) {
+  if (name == "lidar") *frame = PenaltyFrame::kLidar;
+  else if (name == "camera") *frame = PenaltyFrame::kCamera;
+  else return false;
+  return true;
+}
+
+Matrix6d PairPenaltyInformation(double sigma_translation_m, double sigma_rotation_rad, PenaltyFrame frame,
+                                const Eigen::Isometry3d& T_camera_lidar) {
+  const Matrix6d information = PenaltyInformation(sigma_translation_m, sigma_rotation_rad);
+  if (frame == PenaltyFrame::kCamera) return information;
+  // A camera-frame twist xi_c is the lidar-frame twist Ad(T^-1) xi_c:
+  // |xi_lidar|^2_I = xi_c^T Ad(T^-1)^T I Ad(T^-1) xi_c.
+  const Matrix6d to_lidar = AdjointSE3(T_camera_lidar.inverse());
+  const Matrix6d mapped = to_lidar.transpose() * information * to_lidar;
+  return 0.5 * (mapped + mapped.transpose());
+}
+
 bool AlternatingProblem::IsValid(std::string* why) const {
   const auto fail = [&](const std::string& message) {
     if (why) *why = message;
@@ -192,7 +218,12 @@ AlternatingResult SolveAlternating(const AlternatingProblem& problem, const Alte
     const double shrink = std::pow(options.covariance_shrink, 0.5 * alternation);  // sigma scales by sqrt(w)
     record.sigma_translation_m = options.initial_sigma_translation_m * shrink;
     record.sigma_rotation_rad = options.initial_sigma_rotation_rad * shrink;
-    const Matrix6d information = PenaltyInformation(record.sigma_translation_m, record.sigma_rotation_rad);
+    // Per pair, at its upper estimate (the lower level's fixed target and the upper level's start).
+    std::vector<Matrix6d> information(pair_count);
+    for (std::size_t p = 0; p < pair_count; ++p) {
+      information[p] = PairPenaltyInformation(record.sigma_translation_m, record.sigma_rotation_rad,
+                                              options.penalty_frame, upper[p]);
+    }
 
     const double step_scale = static_cast<std::size_t>(alternation) < options.lower_step_scale.size()
                                   ? options.lower_step_scale[static_cast<std::size_t>(alternation)]
@@ -205,7 +236,7 @@ AlternatingResult SolveAlternating(const AlternatingProblem& problem, const Alte
       task.alternation = alternation;
       task.T_camera_lidar_upper = upper[p];
       task.T_camera_lidar_start = upper[p];
-      task.penalty_information = information;
+      task.penalty_information = information[p];
       task.options = options.lower;
       task.options.initial_step_translation_m =
           std::min(step_scale * options.lower.initial_step_translation_m, record.sigma_translation_m);
@@ -260,7 +291,7 @@ AlternatingResult SolveAlternating(const AlternatingProblem& problem, const Alte
                           .sqrt()
                           .matrix();
         entry.T_camera_lidar_lower = lower[p];
-        entry.penalty_information = information;
+        entry.penalty_information = information[p];
         upper_problem.cameras.push_back(entry);
         upper_problem.T_camera_lidar_start.push_back(upper[p]);
       }

@@ -26,11 +26,32 @@
 
 namespace scenecal {
 
+// Where the penalty's sigmas are stated. The difference T^ (-) T = Log(T^ * T^-1)
+// of two camera-lidar transforms is a twist in the camera frame, in which a
+// turn of the lidar about its own origin also shifts it by the lever arm (the
+// lidar's distance from the camera times the angle).
+//  kLidar: P^i is the covariance of the lidar's pose about its own origin
+//    (sigma_t of its position, sigma_phi of its orientation), carried into the
+//    camera-frame difference by the adjoint of the upper estimate.
+//  kCamera: P^i is diagonal in the camera-frame difference itself: a turn then
+//    also pays the lever arm's shift at sigma_t, e.g. 17x the rotation
+//    information for a lidar 4 m away with sigma_t = sigma_phi (numerically),
+//    which held the lower levels' rotations back (BENCHMARK.md "Tenth session").
+enum class PenaltyFrame { kLidar, kCamera };
+const char* PenaltyFrameName(PenaltyFrame frame);  // "lidar", "camera"
+bool ParsePenaltyFrame(const std::string& name, PenaltyFrame* frame);
+
+// (P^i)^-1 in camera-frame difference coordinates for a pair whose upper
+// estimate is T_camera_lidar: diag(1/sigma_t^2, 1/sigma_phi^2) in the frame.
+Matrix6d PairPenaltyInformation(double sigma_translation_m, double sigma_rotation_rad, PenaltyFrame frame,
+                                const Eigen::Isometry3d& T_camera_lidar);
+
 struct AlternatingOptions {
   int max_alternations = 20;                 // the paper: 20
   double initial_sigma_translation_m = 5.0;  // P^0 (the paper: 5 m)
   double initial_sigma_rotation_rad = 5.0;   // P^0 (the paper: 5 rad)
   double covariance_shrink = 0.5;            // w in P^(i+1) = w P^i, in (0, 1)
+  PenaltyFrame penalty_frame = PenaltyFrame::kLidar;
   // Early stop once both levels moved less than these between two alternations
   // and every lower solution agrees with its upper one within them.
   double stop_translation_m = 2e-4;

@@ -173,6 +173,7 @@ std::uint64_t AlternatingSetup::Fingerprint(const CalibrationOptions& options,
   digest.Add(alternating.lower_gradient.function_tolerance);
   digest.Add(static_cast<std::uint64_t>(alternating.max_alternations));
   digest.Add(alternating.covariance_shrink);
+  digest.Add(static_cast<std::uint64_t>(alternating.penalty_frame));
   digest.Add(alternating.initial_sigma_translation_m);
   digest.Add(alternating.initial_sigma_rotation_rad);
   for (const double scale : alternating.lower_step_scale) digest.Add(scale);
@@ -297,6 +298,11 @@ CalibrationOutcome FinishAlternating(AlternatingSetup& setup, const AlternatingR
   result.settings["penalty_sigma0"] = Number(alternating.initial_sigma_translation_m) + " m, " +
                                       Number(alternating.initial_sigma_rotation_rad) + " rad";
   result.settings["penalty_shrink_w"] = Number(alternating.covariance_shrink);
+  result.settings["penalty_frame"] =
+      alternating.penalty_frame == PenaltyFrame::kLidar
+          ? "lidar (sigmas of the lidar's position and of its turn about its own origin, carried into the "
+            "camera-frame difference by the adjoint)"
+          : "camera (sigmas on the camera-frame difference Log(T^ * T^-1))";
   result.settings["difference"] = "SE(3) logarithm of A * B^-1, [rho; phi]";
   result.settings["default_camera_sigma"] = Number(alternating.default_camera_sigma_translation_m) + " m, " +
                                             Number(alternating.default_camera_sigma_rotation_rad) +

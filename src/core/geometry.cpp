@@ -102,6 +102,15 @@ Vector6d LogSE3(const Eigen::Isometry3d& t) {
   return twist;
 }
 
+Matrix6d AdjointSE3(const Eigen::Isometry3d& t) {
+  const Eigen::Matrix3d R = t.linear();
+  Matrix6d adjoint = Matrix6d::Zero();
+  adjoint.topLeftCorner<3, 3>() = R;
+  adjoint.topRightCorner<3, 3>() = Hat(t.translation()) * R;
+  adjoint.bottomRightCorner<3, 3>() = R;
+  return adjoint;
+}
+
 Vector6d DifferenceLog(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
   return LogSE3(a * b.inverse());
 }

@@ -36,6 +36,9 @@ Eigen::Matrix3d ExpSO3(const Eigen::Vector3d& rotation_vector);
 Eigen::Vector3d LogSO3(const Eigen::Matrix3d& rotation);
 Eigen::Isometry3d ExpSE3(const Vector6d& twist);
 Vector6d LogSE3(const Eigen::Isometry3d& transform);
+// Adjoint of T for [rho; phi] twists: T * Exp(xi) * T^-1 = Exp(AdjointSE3(T) * xi),
+// i.e. a twist in T's source frame expressed in its target frame.
+Matrix6d AdjointSE3(const Eigen::Isometry3d& transform);
 
 // The paper's difference A (-) B = A * B^-1, as a 6-vector. The project uses
 // the SE(3) logarithm for penalties (smooth everywhere); the 6-tuple form is

@@ -79,7 +79,9 @@ std::vector<CostSliceSet> SliceHistory(const TransformCost& cost,
       upper_held = history[static_cast<std::size_t>(i - 1)].T_camera_lidar_upper[p];
     const bool penalised = options.include_penalty && record.sigma_translation_m > 0 && record.sigma_rotation_rad > 0;
     const Matrix6d information =
-        penalised ? PenaltyInformation(record.sigma_translation_m, record.sigma_rotation_rad) : Matrix6d::Zero();
+        penalised ? PairPenaltyInformation(record.sigma_translation_m, record.sigma_rotation_rad, options.penalty_frame,
+                                           upper_held)
+                  : Matrix6d::Zero();
     const TransformCost objective = [&](const Eigen::Isometry3d& T) {
       double value = cost(T);
       if (penalised) {

@@ -39,6 +39,7 @@ struct CostSliceOptions {
   // minimised, as in the paper's Fig. 6). Off by default: late in the schedule
   // the penalty dwarfs the data term and hides which directions the data constrains.
   bool include_penalty = false;
+  PenaltyFrame penalty_frame = PenaltyFrame::kLidar;  // as AlternatingOptions::penalty_frame of the run
   bool refresh_visibility = true;   // PairCost: refresh the z-buffer at each centre first
 
   bool IsValid(std::string* why = nullptr) const;
