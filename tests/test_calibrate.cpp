@@ -319,6 +319,16 @@ TEST_F(CalibrateOnSimulation, CliExitCodes) {
                    &number_text),
             2);
   EXPECT_NE(number_text.find("--image-highpass"), std::string::npos) << number_text;
+  // The stages spread over more alternations than there are: exit 2, both counts named.
+  std::string stage_text;
+  EXPECT_EQ(RunCli("calibrate " + DatasetPath().string() + " --output " + output.string() +
+                       " --scheme alt --alternations 4 --stage-alternations 6",
+                   &stage_text),
+            2);
+  EXPECT_NE(stage_text.find("stage_alternations (6) must be between 0 (all) and max_alternations (4)"),
+            std::string::npos)
+      << stage_text;
+  EXPECT_FALSE(fs::exists(output));
   // Constant images: a copy of the dataset with every image flat grey; exit 1, no file.
   const fs::path flat = root_ / "flat";
   fs::copy(DatasetPath(), flat, fs::copy_options::recursive);

@@ -435,6 +435,25 @@ TEST_F(LowerSolverOnSimulation, AlternatingWithLbfgsRecordsItsSolver) {
   EXPECT_NE(outcome.result.settings.at("lower_level").find("L-BFGS"), std::string::npos);
   // L-BFGS lower levels start with a looser coupling than the paper's 5 m / 5 rad (the simplex keeps those).
   EXPECT_EQ(outcome.result.settings.at("penalty_sigma0"), "500 m, 500 rad");
+  // --stage-alternations: the stages spread over the first N, the rest in the last stage.
+  const std::vector<OptimisationStage> three = {{1.0, 0.004, 0}, {0.3, 0.0015, 0}, {0.1, 0.0, 0}};
+  for (int i = 0; i < 20; ++i) {
+    EXPECT_EQ(StageIndexForAlternation(three.size(), i, 20), static_cast<std::size_t>(std::min(2, i * 3 / 20)));
+  }
+  CalibrationOptions staged = options;
+  staged.stages = three;
+  const AlternatingOptions spread = DefaultAlternatingOptions(staged, 26, 20);
+  EXPECT_EQ(StageSpan(spread), 20);
+  EXPECT_EQ(spread.min_alternations, FirstAlternationOfLastStage(three, 20) + 1);
+  ASSERT_EQ(spread.lower_step_scale.size(), 26u);
+  for (int i = 0; i < 26; ++i) {
+    EXPECT_EQ(spread.lower_step_scale[static_cast<std::size_t>(i)], i < 20 ? three[i * 3 / 20].step_scale : 0.1) << i;
+  }
+  EXPECT_EQ(StageSpan(DefaultAlternatingOptions(staged, 26)), 26);
+  AlternatingOptions too_many = spread;
+  too_many.stage_alternations = 27;
+  std::string stage_why;
+  EXPECT_FALSE(too_many.IsValid(&stage_why));
   CalibrationOptions simplex = options;
   simplex.lower_solver = LowerSolver::kSimplex;
   EXPECT_EQ(DefaultAlternatingOptions(simplex).initial_sigma_translation_m, 5.0);

@@ -36,7 +36,8 @@ void ProcessGroup::AbortAll(int exit_code) {
 }
 
 AlternatingOptions MakeAlternatingOptions(const CalibrationOptions& options, const AlternatingArguments& arguments) {
-  AlternatingOptions alternating = DefaultAlternatingOptions(options, arguments.alternations);
+  AlternatingOptions alternating =
+      DefaultAlternatingOptions(options, arguments.alternations, arguments.stage_alternations);
   alternating.covariance_shrink = arguments.shrink;
   ParsePenaltyFrame(arguments.penalty_frame, &alternating.penalty_frame);  // the CLI checked the name
   if (arguments.sigma0_translation_m) alternating.initial_sigma_translation_m = *arguments.sigma0_translation_m;

@@ -14,6 +14,7 @@ namespace scenecal::cli {
 struct AlternatingArguments {
   std::string backend = "threads";  // threads | mpi
   int alternations = 20;
+  int stage_alternations = 0;  // 0: the stages spread over all alternations
   double shrink = 0.5;
   std::string penalty_frame = "lidar";  // PenaltyFrameName
   // Not given: DefaultAlternatingOptions' (the paper's 5 m / 5 rad with the simplex, looser with lbfgs).

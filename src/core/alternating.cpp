@@ -17,6 +17,9 @@ bool AlternatingOptions::IsValid(std::string* why) const {
   };
   if (max_alternations < 1) return fail("max_alternations must be at least 1");
   if (min_alternations < 1) return fail("min_alternations must be at least 1");
+  if (stage_alternations < 0 || stage_alternations > max_alternations)
+    return fail("stage_alternations (" + std::to_string(stage_alternations) + ") must be between 0 (all) and " +
+                "max_alternations (" + std::to_string(max_alternations) + ")");
   if (!(initial_sigma_translation_m > 0) || !(initial_sigma_rotation_rad > 0))
     return fail("initial penalty sigmas must be positive");
   if (!(covariance_shrink > 0 && covariance_shrink < 1)) return fail("covariance_shrink w must be in (0, 1)");

@@ -48,6 +48,10 @@ Matrix6d PairPenaltyInformation(double sigma_translation_m, double sigma_rotatio
 
 struct AlternatingOptions {
   int max_alternations = 20;                 // the paper: 20
+  // Read by the calibration's coarse-to-fine schedule (calibrate_alternating):
+  // its stages are spread over the first this many alternations (0 = all);
+  // the later ones stay in the sharp stage and only tighten the coupling.
+  int stage_alternations = 0;
   double initial_sigma_translation_m = 5.0;  // P^0 (the paper: 5 m)
   double initial_sigma_rotation_rad = 5.0;   // P^0 (the paper: 5 rad)
   double covariance_shrink = 0.5;            // w in P^(i+1) = w P^i, in (0, 1)

@@ -32,38 +32,46 @@ struct Digest {
 
 }  // namespace
 
-std::size_t StageIndexForAlternation(std::size_t stage_count, int alternation, int max_alternations) {
-  return std::min(stage_count - 1, static_cast<std::size_t>(alternation) * stage_count /
-                                       static_cast<std::size_t>(std::max(1, max_alternations)));
+std::size_t StageIndexForAlternation(std::size_t stage_count, int alternation, int span) {
+  return std::min(stage_count - 1,
+                  static_cast<std::size_t>(alternation) * stage_count / static_cast<std::size_t>(std::max(1, span)));
 }
 
-const OptimisationStage& StageForAlternation(const std::vector<OptimisationStage>& stages, int alternation,
-                                             int max_alternations) {
-  return stages[StageIndexForAlternation(stages.size(), alternation, max_alternations)];
+const OptimisationStage& StageForAlternation(const std::vector<OptimisationStage>& stages, int alternation, int span) {
+  return stages[StageIndexForAlternation(stages.size(), alternation, span)];
 }
 
-int FirstAlternationOfLastStage(const std::vector<OptimisationStage>& stages, int max_alternations) {
-  for (int i = 0; i < max_alternations; ++i) {
-    if (StageIndexForAlternation(stages.size(), i, max_alternations) == stages.size() - 1) return i;
+int FirstAlternationOfLastStage(const std::vector<OptimisationStage>& stages, int span) {
+  for (int i = 0; i < span; ++i) {
+    if (StageIndexForAlternation(stages.size(), i, span) == stages.size() - 1) return i;
   }
-  return max_alternations - 1;
+  return span - 1;
 }
 
-std::vector<double> StepScalesForAlternations(const std::vector<OptimisationStage>& stages, int max_alternations) {
+int StageSpan(const AlternatingOptions& alternating) {
+  return alternating.stage_alternations > 0 ? std::min(alternating.stage_alternations, alternating.max_alternations)
+                                            : alternating.max_alternations;
+}
+
+std::vector<double> StepScalesForAlternations(const std::vector<OptimisationStage>& stages, int max_alternations,
+                                              int span) {
   std::vector<double> scales;
-  for (int i = 0; i < max_alternations; ++i) scales.push_back(StageForAlternation(stages, i, max_alternations).step_scale);
+  for (int i = 0; i < max_alternations; ++i) scales.push_back(StageForAlternation(stages, i, span).step_scale);
   return scales;
 }
 
-AlternatingOptions DefaultAlternatingOptions(const CalibrationOptions& options, int max_alternations) {
+AlternatingOptions DefaultAlternatingOptions(const CalibrationOptions& options, int max_alternations,
+                                             int stage_alternations) {
   AlternatingOptions alternating;
   alternating.max_alternations = max_alternations;
+  alternating.stage_alternations = stage_alternations;
   alternating.lower = options.nelder_mead;
   alternating.lower_solver = options.lower_solver;
   alternating.lower_gradient = options.gradient;
   alternating.time_budget_s = options.time_budget_s;
-  alternating.min_alternations = FirstAlternationOfLastStage(options.stages, alternating.max_alternations) + 1;
-  alternating.lower_step_scale = StepScalesForAlternations(options.stages, alternating.max_alternations);
+  const int span = StageSpan(alternating);
+  alternating.min_alternations = FirstAlternationOfLastStage(options.stages, span) + 1;
+  alternating.lower_step_scale = StepScalesForAlternations(options.stages, alternating.max_alternations, span);
   if (options.lower_solver == LowerSolver::kLbfgs) {
     // The paper's P^0 goes with its simplex. L-BFGS lower levels find the smooth
     // cost's own minimum, and there the paper's coupling already holds them back
@@ -86,9 +94,9 @@ std::vector<PairObjective> AlternatingSetup::Objectives(const CalibrationOptions
       return cost->EvaluateWithGradient(T_camera_lidar, update, pivot_lidar, gradient);
     };
     const std::vector<OptimisationStage> stages = options.stages;
-    const int max_alternations = alternating.max_alternations;
-    objective.prepare = [cost, stages, max_alternations](const Eigen::Isometry3d& T_camera_lidar, int alternation) {
-      PreparePairForStage(*cost, StageForAlternation(stages, alternation, max_alternations), T_camera_lidar);
+    const int span = StageSpan(alternating);
+    objective.prepare = [cost, stages, span](const Eigen::Isometry3d& T_camera_lidar, int alternation) {
+      PreparePairForStage(*cost, StageForAlternation(stages, alternation, span), T_camera_lidar);
     };
     objectives.push_back(std::move(objective));
   }
@@ -100,13 +108,13 @@ LowerLevelBatchHook AlternatingSetup::BatchHook(const CalibrationOptions& option
                                                 const ProgressCallback& progress) {
   if (!options.motion_correction) return {};
   return [this, stages = options.stages, first_stage = options.motion_correction_first_stage,
-          motion = options.motion, max_alternations = alternating.max_alternations,
+          motion = options.motion, span = StageSpan(alternating),
           progress](const std::vector<LowerLevelTask>& tasks) {
     if (tasks.empty()) return;
     const int alternation = tasks.front().alternation;
-    const std::size_t stage_index = StageIndexForAlternation(stages.size(), alternation, max_alternations);
+    const std::size_t stage_index = StageIndexForAlternation(stages.size(), alternation, span);
     const bool stage_starts =
-        alternation == 0 || StageIndexForAlternation(stages.size(), alternation - 1, max_alternations) != stage_index;
+        alternation == 0 || StageIndexForAlternation(stages.size(), alternation - 1, span) != stage_index;
     if (!stage_starts || stage_index < static_cast<std::size_t>(first_stage)) return;
     const OptimisationStage& stage = stages[stage_index];
     for (std::size_t l = 0; l < problem.lidars.size(); ++l) {
@@ -172,6 +180,7 @@ std::uint64_t AlternatingSetup::Fingerprint(const CalibrationOptions& options,
   digest.Add(static_cast<std::uint64_t>(alternating.lower_gradient.max_iterations));
   digest.Add(alternating.lower_gradient.function_tolerance);
   digest.Add(static_cast<std::uint64_t>(alternating.max_alternations));
+  digest.Add(static_cast<std::uint64_t>(StageSpan(alternating)));
   digest.Add(alternating.covariance_shrink);
   digest.Add(static_cast<std::uint64_t>(alternating.penalty_frame));
   digest.Add(alternating.initial_sigma_translation_m);
@@ -311,7 +320,11 @@ CalibrationOutcome FinishAlternating(AlternatingSetup& setup, const AlternatingR
   for (const OptimisationStage& s : options.stages) {
     stages += (stages.empty() ? "" : "; ") + std::string("step x") + Number(s.step_scale) + " blur " + Number(s.blur_fraction);
   }
-  result.settings["stages"] = stages + " (spread over the alternations)";
+  result.settings["stages"] =
+      stages + (StageSpan(alternating) < alternating.max_alternations
+                    ? " (spread over the first " + std::to_string(StageSpan(alternating)) +
+                          " alternations; the rest in the last stage)"
+                    : std::string(" (spread over the alternations)"));
   result.settings["time_budget_s"] = Number(alternating.time_budget_s);
   result.termination = "alt " + std::string(MetricKindName(options.cost.metric)) + ": " + solved.termination + ", " +
                        DescribeEvaluations(alternating.lower_solver, solved.total_evaluations,

@@ -40,15 +40,19 @@ struct AlternatingSetup {
 };
 
 // The stage of options.stages that alternation i uses: the schedule is spread
-// evenly over max_alternations (the first alternations on the blurred images).
-std::size_t StageIndexForAlternation(std::size_t stage_count, int alternation, int max_alternations);
-const OptimisationStage& StageForAlternation(const std::vector<OptimisationStage>& stages, int alternation,
-                                             int max_alternations);
+// evenly over the first `span` alternations (the first on the blurred images);
+// later ones stay in the last stage.
+std::size_t StageIndexForAlternation(std::size_t stage_count, int alternation, int span);
+const OptimisationStage& StageForAlternation(const std::vector<OptimisationStage>& stages, int alternation, int span);
 // The first alternation of the last (sharpest) stage.
-int FirstAlternationOfLastStage(const std::vector<OptimisationStage>& stages, int max_alternations);
+int FirstAlternationOfLastStage(const std::vector<OptimisationStage>& stages, int span);
+// The span the stages are spread over: AlternatingOptions::stage_alternations
+// when set (and below max_alternations), else max_alternations.
+int StageSpan(const AlternatingOptions& alternating);
 
-// Each alternation's stage step_scale (AlternatingOptions::lower_step_scale).
-std::vector<double> StepScalesForAlternations(const std::vector<OptimisationStage>& stages, int max_alternations);
+// Each of max_alternations' stage step_scale (AlternatingOptions::lower_step_scale).
+std::vector<double> StepScalesForAlternations(const std::vector<OptimisationStage>& stages, int max_alternations,
+                                              int span);
 
 // P^0's sigma (metres and radians) with L-BFGS lower levels: on the simulated
 // push-broom drives the paper's 5 m / 5 rad left alt 0.1-2.9 deg off, this
@@ -60,8 +64,11 @@ inline constexpr double kLbfgsInitialSigma = 500.0;
 // the coarse-to-fine stages taken from the calibration options; with
 // options.lower_solver = lbfgs, P^0 from kLbfgsInitialSigma instead.
 // The fields derived from the schedule (min_alternations, lower_step_scale)
-// follow max_alternations: pass the count here rather than setting it after.
-AlternatingOptions DefaultAlternatingOptions(const CalibrationOptions& options, int max_alternations = 20);
+// follow max_alternations and stage_alternations: pass them here rather than
+// setting them after.
+// stage_alternations: spread the stages over the first this many (0 = all).
+AlternatingOptions DefaultAlternatingOptions(const CalibrationOptions& options, int max_alternations = 20,
+                                             int stage_alternations = 0);
 
 // Builds every (camera, lidar) pair cost with usable scenes at the initial guess.
 // Returns kSuccess, or another status with *why (e.g. a lidar with no usable scene).
