@@ -339,8 +339,9 @@ CalibrationOutcome FinishAlternating(AlternatingSetup& setup, const AlternatingR
           Number(DegreesFromRadians(last.max_disagreement_rotation_rad)) + " deg apart (penalty sigma " +
           Number(last.sigma_translation_m) + " m / " + Number(last.sigma_rotation_rad) +
           " rad at the end): the pairs' own minima disagree by more than the coupling had enforced, and the "
-          "result is the upper level's compromise between them; more --alternations (or a smaller --shrink) "
-          "tighten it, toward the joint scheme's answer");
+          "result is the upper level's compromise between them; more --alternations with the stages kept "
+          "on the first ones (e.g. --alternations 26 --stage-alternations 20) tighten it after the stages, "
+          "toward the joint scheme's answer");
     }
   }
   (void)input;
