@@ -210,6 +210,24 @@ TEST_F(ExperimentCli, NothingCalibratedExitsWithOne) {
   EXPECT_EQ(SplitLeadingFields(lines[1], 6)[5], "0") << "the run is recorded as failed";
 }
 
+// Alt's stages spread over more alternations than the runs have: refused before any run.
+TEST_F(ExperimentCli, StagesBeyondTheAlternationsAreRefused) {
+  ASSERT_EQ(exit_code_, 0) << ReadText(Root() / "simulate.log");
+  const fs::path output = Root() / "overstaged";
+  const fs::path log = Root() / "overstaged.log";
+  EXPECT_EQ(RunCli("experiment --dataset " + Dataset().string() +
+                       " --guesses 1 --schemes alt --metrics nid --scenes 4 --alternations 3 --stage-alternations 5 "
+                       "--penalty-frame camera --output " +
+                       output.string(),
+                   log),
+            2)
+      << ReadText(log);
+  EXPECT_NE(ReadText(log).find("stage_alternations (5) must be between 0 (all) and max_alternations (3)"),
+            std::string::npos)
+      << ReadText(log);
+  EXPECT_FALSE(fs::exists(output / "runs.csv"));
+}
+
 TEST_F(ExperimentCli, CalibrateReportWritesPageAndOverlays) {
   ASSERT_EQ(exit_code_, 0) << ReadText(Root() / "simulate.log");
   for (const std::string scheme : {"alt", "joint"}) {

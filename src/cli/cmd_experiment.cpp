@@ -50,6 +50,8 @@ struct ExperimentArguments {
   std::vector<std::string> metrics = {"nid", "mi"};
   int scenes = 30;
   int alternations = 20;
+  int stage_alternations = 0;           // alt: stages spread over the first N (0 = all)
+  std::string penalty_frame = "lidar";  // alt: where the penalty's sigmas hold
   int threads = 0;
   std::string image_size;     // WxH; empty: the simulator's default
   double distance_m = 380.0;  // simulated drive length
@@ -249,6 +251,8 @@ int RunExperiment(const ExperimentArguments& args) {
   }
   AlternatingArguments alternating_arguments;
   alternating_arguments.alternations = args.alternations;
+  alternating_arguments.stage_alternations = args.stage_alternations;
+  alternating_arguments.penalty_frame = args.penalty_frame;
   if (!MakeAlternatingOptions(options, alternating_arguments).IsValid(&why)) {
     spdlog::error("invalid alt options: {}", why);
     return kExitInvalidInput;
@@ -454,7 +458,10 @@ int RunExperiment(const ExperimentArguments& args) {
   data.settings["metrics"] = fmt::format("{}", fmt::join(args.metrics, ", "));
   data.settings["scenes per camera"] = std::to_string(args.scenes);
   data.settings["swathe length"] = fmt::format("{} m", args.swathe_length_m);
-  data.settings["alternations (alt)"] = std::to_string(args.alternations);
+  data.settings["alternations (alt)"] =
+      std::to_string(args.alternations) +
+      (args.stage_alternations > 0 ? ", the stages over the first " + std::to_string(args.stage_alternations) : "") +
+      "; penalty in the " + args.penalty_frame + " frame";
   data.settings["lower solver"] = args.lower_solver + " (" + BinningName(options.cost.histogram.binning) + " binning)";
   if (options.lower_solver == LowerSolver::kLbfgs) {
     data.settings["L-BFGS iterations per run"] = std::to_string(options.gradient.max_iterations);
@@ -554,6 +561,15 @@ CommandRunner AddExperimentCommand(CLI::App& app) {
       ->capture_default_str();
   command->add_option("--alternations", args->alternations, "alt: maximum number of alternations (the paper: 20)")
       ->check(CLI::Range(1, 10000))
+      ->capture_default_str();
+  command->add_option("--stage-alternations", args->stage_alternations,
+                      "alt: spread the coarse-to-fine stages over the first N alternations, the rest only tighten "
+                      "the penalty (0: over all; as calibrate's)")
+      ->check(CLI::Range(0, 10000))
+      ->capture_default_str();
+  command->add_option("--penalty-frame", args->penalty_frame,
+                      "alt: where the penalty's sigmas hold, lidar or camera (as calibrate's)")
+      ->check(CLI::IsMember({"lidar", "camera"}))
       ->capture_default_str();
   command->add_option("--threads", args->threads, "Worker threads; 0 = all hardware threads")
       ->check(kNonNegative)
