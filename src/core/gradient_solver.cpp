@@ -263,16 +263,13 @@ GradientSolverSummary MinimiseWithGradient(const PairCost& cost, const GradientS
 Vector6d BaseGradientFromCameraGradient(const Eigen::Isometry3d& T_base_camera, TransformUpdate update,
                                         const Vector6d& gradient_camera) {
   const Eigen::Isometry3d T_camera_base = T_base_camera.inverse();
+  // A left twist of T_base_lidar is the left twist Ad(T_camera_base) xi of T_camera_lidar.
+  if (update == TransformUpdate::kLeftTwist) return AdjointSE3(T_camera_base).transpose() * gradient_camera;
+  // About a lidar point the update's axes only turn with the frames.
   const Eigen::Matrix3d R_cb_transposed = T_camera_base.linear().transpose();
-  const Eigen::Vector3d g_rho = gradient_camera.head<3>(), g_phi = gradient_camera.tail<3>();
   Vector6d gradient_base;
-  gradient_base.head<3>() = R_cb_transposed * g_rho;
-  if (update == TransformUpdate::kLeftTwist) {
-    // Ad^T = [R^T, 0; -R^T [t]x, R^T]: the lower block row is R^T (g_phi - t x g_rho).
-    gradient_base.tail<3>() = R_cb_transposed * (g_phi - T_camera_base.translation().cross(g_rho));
-  } else {
-    gradient_base.tail<3>() = R_cb_transposed * g_phi;
-  }
+  gradient_base.head<3>() = R_cb_transposed * gradient_camera.head<3>();
+  gradient_base.tail<3>() = R_cb_transposed * gradient_camera.tail<3>();
   return gradient_base;
 }
 
