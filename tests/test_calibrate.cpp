@@ -343,6 +343,76 @@ TEST_F(CalibrateOnSimulation, CliExitCodes) {
   EXPECT_FALSE(fs::exists(output));
 }
 
+// --setting: the bundle fills the options not given, follows the image width for
+// the border, is recorded in the result; a rig it does not fit is refused.
+TEST_F(CalibrateOnSimulation, CliSettingFillsTheOptionsNotGivenAndRefusesARigWithoutPushBroom) {
+  const io::Dataset dataset = io::OpenDataset(DatasetPath());
+  int widest = 0;
+  for (const CameraInfo& camera : dataset.rig.cameras) widest = std::max(widest, camera.model.width);
+  const fs::path output = root_ / "setting.yaml";
+  std::string text;
+  ASSERT_EQ(RunCli("calibrate " + DatasetPath().string() + " --output " + output.string() +
+                       " --setting push-broom-drifting --scheme joint --swathe-length 12 --scenes 4 --lbfgs-iterations 3 "
+                       "--stages 1 --no-uncertainty --no-basin-check",
+                   &text),
+            0)
+      << text;
+  const YAML::Node settings = YAML::LoadFile(output.string())["settings"];
+  const std::string setting = settings["setting"].as<std::string>();
+  const std::string border = std::to_string(static_cast<int>(std::lround(0.0375 * widest)));
+  EXPECT_EQ(setting, "push-broom-drifting: --range-split 6 --thin 2 --lower-solver lbfgs --motion-correction turn "
+                     "--refresh-border " + border);
+  // The options the command line gave keep their values; the setting's are in force.
+  EXPECT_EQ(settings["swathe_length_m"].as<std::string>(), "12");
+  EXPECT_EQ(settings["refresh_border_px"].as<std::string>(), border);
+  EXPECT_NE(settings["lower_solver"].as<std::string>().find("lbfgs"), std::string::npos);
+  EXPECT_EQ(settings["intensity_highpass"].as<std::string>(), "off");  // drifting odometry: no high-pass
+  EXPECT_NE(settings["motion_correction"].as<std::string>().find("turn"), std::string::npos);
+  EXPECT_EQ(settings["thinning"].as<std::string>().rfind("2 points per", 0), 0u);
+  EXPECT_EQ(settings["range_split_m"].as<std::string>(), "6");
+  EXPECT_NE(text.find("--setting push-broom-drifting: --range-split 6"), std::string::npos) << text;
+  // With alt, the stages spread over 20 of 26 alternations (cut short here by the time budget).
+  const fs::path alt_output = root_ / "setting_alt.yaml";
+  ASSERT_EQ(RunCli("calibrate " + DatasetPath().string() + " --output " + alt_output.string() +
+                       " --setting push-broom --scenes 4 --lbfgs-iterations 2 --stages 1 --no-uncertainty "
+                       "--no-basin-check --time-budget 0.3",
+                   &text),
+            0)
+      << text;
+  const YAML::Node alt_settings = YAML::LoadFile(alt_output.string())["settings"];
+  EXPECT_EQ(alt_settings["setting"].as<std::string>(),
+            "push-broom: --swathe-length 30 --range-split 6 --thin 2 --lower-solver lbfgs --image-highpass 0.0234 "
+            "--alternations 26 --stage-alternations 20 --refresh-border " + border);
+  EXPECT_EQ(alt_settings["alternations_max"].as<std::string>(), "26");
+  EXPECT_EQ(alt_settings["intensity_highpass"].as<std::string>(), "0.0234 of the image width");
+
+  // A rig with no 2D lidar: exit 2, the reason named, no file.
+  const fs::path no_push_broom = root_ / "no_push_broom";
+  fs::copy(DatasetPath(), no_push_broom, fs::copy_options::recursive);
+  {
+    std::ifstream in(no_push_broom / "rig.yaml");
+    std::stringstream rig;
+    rig << in.rdbuf();
+    std::string text_3d = rig.str();
+    for (std::size_t at = text_3d.find("kind: 2d"); at != std::string::npos; at = text_3d.find("kind: 2d", at))
+      text_3d.replace(at, 8, "kind: 3d");
+    std::ofstream(no_push_broom / "rig.yaml") << text_3d;
+  }
+  const fs::path refused = root_ / "refused.yaml";
+  std::string refused_text;
+  EXPECT_EQ(RunCli("calibrate " + no_push_broom.string() + " --output " + refused.string() +
+                       " --setting push-broom --scenes 4",
+                   &refused_text),
+            2);
+  EXPECT_NE(refused_text.find("no push-broom lidar"), std::string::npos) << refused_text;
+  EXPECT_FALSE(fs::exists(refused));
+  // An unknown setting: exit 2, the choices named.
+  EXPECT_EQ(RunCli("calibrate " + DatasetPath().string() + " --output " + refused.string() + " --setting pushbroom",
+                   &refused_text),
+            2);
+  EXPECT_NE(refused_text.find("push-broom,push-broom-drifting"), std::string::npos) << refused_text;
+}
+
 // Rows of a profile CSV by profile name: (dof, offset, cost).
 struct ProfileRow {
   std::string dof;

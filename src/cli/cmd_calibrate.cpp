@@ -7,6 +7,7 @@
 #include <cmath>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <random>
 #include <set>
 #include <sstream>
@@ -56,7 +57,64 @@ struct CalibrateArguments {
   bool no_basin_check = false;  // --no-basin-check: skip the restarts from further away
   double basin_offset_deg = 1.0;
   AlternatingArguments alternating;  // --scheme alt
+  std::string setting;               // --setting: a named bundle of the options above (ApplySetting)
+  const CLI::App* command = nullptr;  // to tell the options given on the command line from the defaults
+  std::vector<std::string> setting_words;  // what --setting set (filled by ApplySetting)
 };
+
+// --setting: the options measured together on the simulated push-broom drives
+// (README "What to expect", BENCHMARK.md sixth to eleventh sessions), so that a
+// user types one word instead of nine and scales nothing by hand. An option
+// given on the command line keeps its value.
+constexpr double kPushBroomSwatheLengthM = 30.0;
+constexpr double kPushBroomRangeSplitM = 6.0;
+constexpr int kPushBroomThin = 2;
+constexpr double kPushBroomRefreshBorderFraction = 0.0375;  // of the image width: 48 px at 1280
+constexpr double kPushBroomHighpass = 0.0234;               // of the image width: 30 px at 1280
+constexpr int kPushBroomAlternations = 26;
+constexpr int kPushBroomStageAlternations = 20;
+
+bool GivenOnCommandLine(const CalibrateArguments& args, const char* name) {
+  const CLI::Option* option = args.command == nullptr ? nullptr : args.command->get_option_no_throw(name);
+  return option != nullptr && option->count() > 0;
+}
+
+// Sets the setting's options that were not given (all but --refresh-border,
+// which follows the image width: SettingRefreshBorder) and lists them in
+// args->setting_words.
+void ApplySetting(CalibrateArguments* args) {
+  if (args->setting.empty()) return;
+  const bool drifting = args->setting == "push-broom-drifting";
+  const auto unless_given = [&](const char* name, const std::string& value, const auto& set) {
+    if (GivenOnCommandLine(*args, name)) return;  // the user's own value wins
+    set();
+    args->setting_words.push_back(std::string(name) + " " + value);
+  };
+  unless_given("--swathe-length", "30", [&] { args->cost.swathe_length_m = kPushBroomSwatheLengthM; });
+  unless_given("--range-split", "6", [&] { args->cost.range_split_m = kPushBroomRangeSplitM; });
+  unless_given("--thin", "2", [&] { args->cost.thin = kPushBroomThin; });
+  unless_given("--lower-solver", "lbfgs", [&] { args->lower_solver = "lbfgs"; });
+  if (drifting) {
+    // The texture is misplaced by the drift: no high-pass; each frame's swathe re-posed instead.
+    unless_given("--motion-correction", "turn", [&] { args->motion.terms = {"turn"}; });
+  } else {
+    unless_given("--image-highpass", "0.0234", [&] { args->cost.image_highpass = kPushBroomHighpass; });
+  }
+  if (args->scheme == "alt") {
+    unless_given("--alternations", "26", [&] { args->alternating.alternations = kPushBroomAlternations; });
+    unless_given("--stage-alternations", "20",
+                 [&] { args->alternating.stage_alternations = kPushBroomStageAlternations; });
+  }
+}
+
+// The setting's --refresh-border for this rig (3.75 % of the widest image), or
+// nothing when there is no setting or the option was given.
+std::optional<double> SettingRefreshBorder(const CalibrateArguments& args, const Rig& rig) {
+  if (args.setting.empty() || GivenOnCommandLine(args, "--refresh-border")) return std::nullopt;
+  int widest = 0;
+  for (const CameraInfo& camera : rig.cameras) widest = std::max(widest, camera.model.width);
+  return std::round(kPushBroomRefreshBorderFraction * widest);
+}
 
 // One line on an estimate's error against the truth: FORMAT.md's translation and
 // rotation errors, then per axis (difference of translations, cm; roll, pitch,
@@ -83,9 +141,9 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
     if (!args.cost.BinningGiven()) {
       options.cost.histogram.binning = Binning::kBSpline;  // gradients need it; recorded in the result's settings
     } else if (options.cost.histogram.binning != Binning::kBSpline) {
-      spdlog::error("--lower-solver lbfgs needs --binning bspline: with --binning {} the cost is piecewise constant "
+      spdlog::error("--lower-solver lbfgs{} needs --binning bspline: with --binning {} the cost is piecewise constant "
                     "and has no gradient (use --lower-solver simplex for hard binning)",
-                    args.cost.binning);
+                    args.setting.empty() ? "" : " (from --setting " + args.setting + ")", args.cost.binning);
       return kExitInvalidInput;
     }
   }
@@ -116,6 +174,23 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
   const auto thread_limit = LimitThreads(args.threads);
   std::string single_frame_defaults;
   const io::Dataset dataset = OpenDatasetWithDefaults(args.dataset, args.cost, &options, &single_frame_defaults);
+  std::vector<std::string> setting_words = args.setting_words;
+  if (!args.setting.empty()) {
+    const bool has_2d = std::any_of(dataset.rig.lidars.begin(), dataset.rig.lidars.end(),
+                                    [](const LidarInfo& lidar) { return lidar.kind == LidarKind::k2d; });
+    if (!has_2d || dataset.trajectory.size() < 2) {
+      spdlog::error("--setting {}: {} has {}; the setting is for swathes that a moving 2D (push-broom) lidar builds "
+                    "over a drive (on single frames its fixed point sets and L-BFGS run away: BENCHMARK.md)",
+                    args.setting, args.dataset,
+                    !has_2d ? "no push-broom lidar (rig.yaml: no lidar of kind 2d)" : "a single-pose trajectory");
+      return kExitInvalidInput;
+    }
+    if (const auto border = SettingRefreshBorder(args, dataset.rig)) {
+      options.cost.swathe.refresh_border_px = *border;
+      setting_words.push_back(fmt::format("--refresh-border {:g}", *border));
+    }
+    spdlog::info("--setting {}: {}", args.setting, fmt::join(setting_words, " "));
+  }
 
   CalibrationInput input;
   input.rig = dataset.rig;
@@ -150,13 +225,13 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
   if (has_push_broom && options.range_split_m <= 0.0) {
     // 10 m push-broom swathes leave the tilt nearly free (BENCHMARK.md, "Sixth session").
     spdlog::info("push-broom lidar: its tilt is weakly determined by 10 m swathes; on the simulated drives (rear "
-                 "and front push-broom lidars) 30 m swathes scored near and far apart did much better (--scheme "
-                 "joint --swathe-length 30 --range-split 6 --thin 2 --lower-solver lbfgs --refresh-border 48 at "
-                 "1280 px wide; README, \"What to expect\")");
-  } else if (has_push_broom && options.scenes.swathe_length_m >= 20.0 && !options.motion_correction) {
+                 "and front push-broom lidars) 30 m swathes scored near and far apart did much better: --setting "
+                 "push-broom (good odometry) or push-broom-drifting (visual odometry); README, \"What to expect\"");
+  } else if (has_push_broom && options.scenes.swathe_length_m >= 20.0 && !options.motion_correction &&
+             args.setting != "push-broom") {  // that setting says the odometry is good
     // Long swathes collect the odometry's drift (BENCHMARK.md, "Seventh session").
     spdlog::info("push-broom lidar with {} m swathes: if the trajectory is visual odometry (drifting ~0.01 deg/m), "
-                 "--motion-correction turn corrects each frame's swathe (on two of three simulated drives 0.68-0.85 deg -> "
+                 "--motion-correction turn (--setting push-broom-drifting) corrects each frame's swathe (on two of three simulated drives 0.68-0.85 deg -> "
                  "0.12-0.13 deg); with exact odometry it costs 0.1-0.4 deg",
                  options.scenes.swathe_length_m);
   }
@@ -204,6 +279,9 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
   CalibrationResult& result = outcome.result;
   result.timings_s["load"] = load_s;
   result.settings["image_channel"] = io::ImageChannelName(args.cost.ImageChannel());
+  if (!args.setting.empty()) {
+    result.settings["setting"] = args.setting + (setting_words.empty() ? "" : ": " + fmt::format("{}", fmt::join(setting_words, " ")));
+  }
   if (!single_frame_defaults.empty()) result.settings["single_frame_defaults"] = single_frame_defaults;
   if (args.perturb_translation_m > 0.0 || args.perturb_rotation_deg > 0.0 || args.perturb_from_truth) {
     result.settings["perturb_initial"] =
@@ -285,7 +363,9 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
 // MPI starts before any data is read (every rank loads the same inputs). A
 // rank that fails ends every rank at once: the others would otherwise wait in
 // a collective for it forever.
-int Run(const CalibrateArguments& args) {
+int Run(const CalibrateArguments& given) {
+  CalibrateArguments args = given;
+  ApplySetting(&args);
   ProcessGroup group(args.scheme == "alt" ? args.alternating.backend : "threads");
   if (!group.distributed()) return RunCalibration(args, group);
   if (!group.IsRoot()) spdlog::set_level(spdlog::level::warn);
@@ -321,6 +401,16 @@ CommandRunner AddCalibrateCommand(CLI::App& app) {
                       "T_base_lidar, the cost summed over all cameras through the known camera transforms")
       ->check(CLI::IsMember({"once", "joint", "alt"}))
       ->capture_default_str();
+  args->command = command;
+  command->add_option("--setting", args->setting,
+                      "A named bundle of options measured together; any of them given on the command line keeps its "
+                      "own value. push-broom (a moving 2D lidar, good odometry: RTK-INS, lidar odometry): "
+                      "--swathe-length 30 --range-split 6 --thin 2 --lower-solver lbfgs --image-highpass 0.0234, "
+                      "--refresh-border 3.75 % of the widest image (48 px at 1280), and with --scheme alt "
+                      "--alternations 26 --stage-alternations 20. push-broom-drifting (visual odometry, ~0.01 deg/m): "
+                      "the same with --motion-correction turn instead of the high-pass. Recorded in the result's "
+                      "settings (README, \"What to expect\")")
+      ->check(CLI::IsMember({"push-broom", "push-broom-drifting"}));
   AddCostOptions(command, &args->cost);
   AddMotionCorrectionOptions(command, &args->motion);
   command->add_option("--lower-solver", args->lower_solver,
