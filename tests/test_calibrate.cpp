@@ -352,8 +352,8 @@ TEST_F(CalibrateOnSimulation, CliSettingFillsTheOptionsNotGivenAndRefusesARigWit
   const fs::path output = root_ / "setting.yaml";
   std::string text;
   ASSERT_EQ(RunCli("calibrate " + DatasetPath().string() + " --output " + output.string() +
-                       " --setting push-broom-drifting --scheme joint --swathe-length 12 --scenes 4 --lbfgs-iterations 3 "
-                       "--stages 1 --no-uncertainty --no-basin-check",
+                       " --setting push-broom-drifting --scheme joint --swathe-length 12 --scenes 4 "
+                       "--lbfgs-iterations 3 --stages 1 --no-uncertainty --no-basin-check",
                    &text),
             0)
       << text;

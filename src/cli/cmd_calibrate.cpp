@@ -90,19 +90,24 @@ void ApplySetting(CalibrateArguments* args) {
     set();
     args->setting_words.push_back(std::string(name) + " " + value);
   };
-  unless_given("--swathe-length", "30", [&] { args->cost.swathe_length_m = kPushBroomSwatheLengthM; });
-  unless_given("--range-split", "6", [&] { args->cost.range_split_m = kPushBroomRangeSplitM; });
-  unless_given("--thin", "2", [&] { args->cost.thin = kPushBroomThin; });
+  const auto number = [](double value) { return fmt::format("{:g}", value); };
+  unless_given("--swathe-length", number(kPushBroomSwatheLengthM),
+               [&] { args->cost.swathe_length_m = kPushBroomSwatheLengthM; });
+  unless_given("--range-split", number(kPushBroomRangeSplitM),
+               [&] { args->cost.range_split_m = kPushBroomRangeSplitM; });
+  unless_given("--thin", number(kPushBroomThin), [&] { args->cost.thin = kPushBroomThin; });
   unless_given("--lower-solver", "lbfgs", [&] { args->lower_solver = "lbfgs"; });
   if (drifting) {
     // The texture is misplaced by the drift: no high-pass; each frame's swathe re-posed instead.
     unless_given("--motion-correction", "turn", [&] { args->motion.terms = {"turn"}; });
   } else {
-    unless_given("--image-highpass", "0.0234", [&] { args->cost.image_highpass = kPushBroomHighpass; });
+    unless_given("--image-highpass", number(kPushBroomHighpass),
+                 [&] { args->cost.image_highpass = kPushBroomHighpass; });
   }
   if (args->scheme == "alt") {
-    unless_given("--alternations", "26", [&] { args->alternating.alternations = kPushBroomAlternations; });
-    unless_given("--stage-alternations", "20",
+    unless_given("--alternations", number(kPushBroomAlternations),
+                 [&] { args->alternating.alternations = kPushBroomAlternations; });
+    unless_given("--stage-alternations", number(kPushBroomStageAlternations),
                  [&] { args->alternating.stage_alternations = kPushBroomStageAlternations; });
   }
 }
@@ -143,7 +148,8 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
     } else if (options.cost.histogram.binning != Binning::kBSpline) {
       spdlog::error("--lower-solver lbfgs{} needs --binning bspline: with --binning {} the cost is piecewise constant "
                     "and has no gradient (use --lower-solver simplex for hard binning)",
-                    args.setting.empty() ? "" : " (from --setting " + args.setting + ")", args.cost.binning);
+                    GivenOnCommandLine(args, "--lower-solver") ? "" : " (from --setting " + args.setting + ")",
+                    args.cost.binning);
       return kExitInvalidInput;
     }
   }
@@ -189,7 +195,7 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
       options.cost.swathe.refresh_border_px = *border;
       setting_words.push_back(fmt::format("--refresh-border {:g}", *border));
     }
-    spdlog::info("--setting {}: {}", args.setting, fmt::join(setting_words, " "));
+    spdlog::info("--setting {}: {}", args.setting, fmt::join(setting_words, " "));  // what the result records
   }
 
   CalibrationInput input;
@@ -231,8 +237,8 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
              args.setting != "push-broom") {  // that setting says the odometry is good
     // Long swathes collect the odometry's drift (BENCHMARK.md, "Seventh session").
     spdlog::info("push-broom lidar with {} m swathes: if the trajectory is visual odometry (drifting ~0.01 deg/m), "
-                 "--motion-correction turn (--setting push-broom-drifting) corrects each frame's swathe (on two of three simulated drives 0.68-0.85 deg -> "
-                 "0.12-0.13 deg); with exact odometry it costs 0.1-0.4 deg",
+                 "--motion-correction turn (--setting push-broom-drifting) corrects each frame's swathe (on two of "
+                 "three simulated drives 0.68-0.85 deg -> 0.12-0.13 deg); with exact odometry it costs 0.1-0.4 deg",
                  options.scenes.swathe_length_m);
   }
   const bool lbfgs = options.lower_solver == LowerSolver::kLbfgs;
@@ -280,7 +286,8 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
   result.timings_s["load"] = load_s;
   result.settings["image_channel"] = io::ImageChannelName(args.cost.ImageChannel());
   if (!args.setting.empty()) {
-    result.settings["setting"] = args.setting + (setting_words.empty() ? "" : ": " + fmt::format("{}", fmt::join(setting_words, " ")));
+    result.settings["setting"] =
+        args.setting + (setting_words.empty() ? "" : fmt::format(": {}", fmt::join(setting_words, " ")));
   }
   if (!single_frame_defaults.empty()) result.settings["single_frame_defaults"] = single_frame_defaults;
   if (args.perturb_translation_m > 0.0 || args.perturb_rotation_deg > 0.0 || args.perturb_from_truth) {
