@@ -228,6 +228,45 @@ TEST_F(ExperimentCli, StagesBeyondTheAlternationsAreRefused) {
   EXPECT_FALSE(fs::exists(output / "runs.csv"));
 }
 
+// --setting fills the options the command line did not give, the border from the
+// image width (320 px here), and the report lists what it set.
+TEST_F(ExperimentCli, SettingFillsTheOptionsNotGiven) {
+  ASSERT_EQ(exit_code_, 0) << ReadText(Root() / "simulate.log");
+  const fs::path output = Root() / "setting";
+  const fs::path log = Root() / "setting.log";
+  ASSERT_EQ(RunCli("experiment --dataset " + Dataset().string() +
+                       " --guesses 1 --schemes joint --metrics nid --scenes 4 --swathe-length 12 "
+                       "--setting push-broom-drifting --output " +
+                       output.string(),
+                   log),
+            0)
+      << ReadText(log);
+  const std::string words = "--range-split 6 --thin 2 --lower-solver lbfgs --motion-correction turn --refresh-border 12";
+  EXPECT_NE(ReadText(log).find("--setting push-broom-drifting: " + words), std::string::npos) << ReadText(log);
+  // The same experiment without the setting ends elsewhere: its options were in force.
+  const fs::path plain = Root() / "setting_plain";
+  ASSERT_EQ(RunCli("experiment --dataset " + Dataset().string() +
+                       " --guesses 1 --schemes joint --metrics nid --scenes 4 --swathe-length 12 --output " +
+                       plain.string(),
+                   Root() / "setting_plain.log"),
+            0)
+      << ReadText(Root() / "setting_plain.log");
+  const auto errors = [](const fs::path& runs) {  // translation and rotation error of the one run
+    const std::vector<std::string> fields = SplitLeadingFields(Lines(ReadText(runs)).at(1), 8);
+    return fields[6] + " " + fields[7];
+  };
+  EXPECT_NE(errors(output / "runs.csv"), errors(plain / "runs.csv"));
+  const std::string html = ReadText(output / "report.html");
+  EXPECT_NE(html.find(words), std::string::npos);
+  EXPECT_NE(html.find("12 m"), std::string::npos) << "--swathe-length given: kept";
+  // An unknown setting: exit 2 before any run.
+  EXPECT_EQ(RunCli("experiment --dataset " + Dataset().string() + " --setting push --output " +
+                       (Root() / "setting_bad").string(),
+                   log),
+            2);
+  EXPECT_NE(ReadText(log).find("push-broom,push-broom-drifting"), std::string::npos) << ReadText(log);
+}
+
 TEST_F(ExperimentCli, CalibrateReportWritesPageAndOverlays) {
   ASSERT_EQ(exit_code_, 0) << ReadText(Root() / "simulate.log");
   for (const std::string scheme : {"alt", "joint"}) {

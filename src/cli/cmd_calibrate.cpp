@@ -23,6 +23,7 @@
 #include "cli/cost_arguments.hpp"
 #include "cli/load_input.hpp"
 #include "cli/report_writer.hpp"
+#include "cli/setting.hpp"
 #include "cli/uncertainty_report.hpp"
 #include "cli/validators.hpp"
 #include "core/calibrate.hpp"
@@ -62,63 +63,36 @@ struct CalibrateArguments {
   std::vector<std::string> setting_words;  // what --setting set (filled by ApplySetting)
 };
 
-// --setting: the options measured together on the simulated push-broom drives
-// (README "What to expect", BENCHMARK.md sixth to eleventh sessions), so that a
-// user types one word instead of nine and scales nothing by hand. An option
-// given on the command line keeps its value.
-constexpr double kPushBroomSwatheLengthM = 30.0;
-constexpr double kPushBroomRangeSplitM = 6.0;
-constexpr int kPushBroomThin = 2;
-constexpr double kPushBroomRefreshBorderFraction = 0.0375;  // of the image width: 48 px at 1280
-constexpr double kPushBroomHighpass = 0.0234;               // of the image width: 30 px at 1280
-constexpr int kPushBroomAlternations = 26;
-constexpr int kPushBroomStageAlternations = 20;
-
-bool GivenOnCommandLine(const CalibrateArguments& args, const char* name) {
+bool GivenOnCommandLine(const CalibrateArguments& args, const std::string& name) {
   const CLI::Option* option = args.command == nullptr ? nullptr : args.command->get_option_no_throw(name);
   return option != nullptr && option->count() > 0;
 }
 
-// Sets the setting's options that were not given (all but --refresh-border,
-// which follows the image width: SettingRefreshBorder) and lists them in
-// args->setting_words.
+// Sets the options of args->setting (cli/setting.hpp) that the command line
+// did not give, and lists them in args->setting_words; --refresh-border
+// follows the images and is set once the dataset is open.
 void ApplySetting(CalibrateArguments* args) {
-  if (args->setting.empty()) return;
-  const bool drifting = args->setting == "push-broom-drifting";
-  const auto unless_given = [&](const char* name, const std::string& value, const auto& set) {
-    if (GivenOnCommandLine(*args, name)) return;  // the user's own value wins
-    set();
-    args->setting_words.push_back(std::string(name) + " " + value);
-  };
-  const auto number = [](double value) { return fmt::format("{:g}", value); };
-  unless_given("--swathe-length", number(kPushBroomSwatheLengthM),
-               [&] { args->cost.swathe_length_m = kPushBroomSwatheLengthM; });
-  unless_given("--range-split", number(kPushBroomRangeSplitM),
-               [&] { args->cost.range_split_m = kPushBroomRangeSplitM; });
-  unless_given("--thin", number(kPushBroomThin), [&] { args->cost.thin = kPushBroomThin; });
-  unless_given("--lower-solver", "lbfgs", [&] { args->lower_solver = "lbfgs"; });
-  if (drifting) {
-    // The texture is misplaced by the drift: no high-pass; each frame's swathe re-posed instead.
-    unless_given("--motion-correction", "turn", [&] { args->motion.terms = {"turn"}; });
-  } else {
-    unless_given("--image-highpass", number(kPushBroomHighpass),
-                 [&] { args->cost.image_highpass = kPushBroomHighpass; });
-  }
-  if (args->scheme == "alt") {
-    unless_given("--alternations", number(kPushBroomAlternations),
-                 [&] { args->alternating.alternations = kPushBroomAlternations; });
-    unless_given("--stage-alternations", number(kPushBroomStageAlternations),
-                 [&] { args->alternating.stage_alternations = kPushBroomStageAlternations; });
+  for (const SettingOption& option : SettingOptions(args->setting, args->scheme == "alt")) {
+    if (GivenOnCommandLine(*args, option.name)) continue;  // the user's own value wins
+    if (option.name == "--swathe-length") args->cost.swathe_length_m = option.number;
+    if (option.name == "--range-split") args->cost.range_split_m = option.number;
+    if (option.name == "--thin") args->cost.thin = static_cast<int>(option.number);
+    if (option.name == "--lower-solver") args->lower_solver = option.value;
+    if (option.name == "--image-highpass") args->cost.image_highpass = option.number;
+    if (option.name == "--motion-correction") args->motion.terms = {option.value};
+    if (option.name == "--alternations") args->alternating.alternations = static_cast<int>(option.number);
+    if (option.name == "--stage-alternations") args->alternating.stage_alternations = static_cast<int>(option.number);
+    args->setting_words.push_back(option.name + " " + option.value);
   }
 }
 
-// The setting's --refresh-border for this rig (3.75 % of the widest image), or
-// nothing when there is no setting or the option was given.
+// The setting's --refresh-border for this rig, or nothing when there is no
+// setting or the option was given.
 std::optional<double> SettingRefreshBorder(const CalibrateArguments& args, const Rig& rig) {
   if (args.setting.empty() || GivenOnCommandLine(args, "--refresh-border")) return std::nullopt;
   int widest = 0;
   for (const CameraInfo& camera : rig.cameras) widest = std::max(widest, camera.model.width);
-  return std::round(kPushBroomRefreshBorderFraction * widest);
+  return SettingRefreshBorderPx(widest);
 }
 
 // One line on an estimate's error against the truth: FORMAT.md's translation and
@@ -182,13 +156,9 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
   const io::Dataset dataset = OpenDatasetWithDefaults(args.dataset, args.cost, &options, &single_frame_defaults);
   std::vector<std::string> setting_words = args.setting_words;
   if (!args.setting.empty()) {
-    const bool has_2d = std::any_of(dataset.rig.lidars.begin(), dataset.rig.lidars.end(),
-                                    [](const LidarInfo& lidar) { return lidar.kind == LidarKind::k2d; });
-    if (!has_2d || dataset.trajectory.size() < 2) {
-      spdlog::error("--setting {}: {} has {}; the setting is for swathes that a moving 2D (push-broom) lidar builds "
-                    "over a drive (on single frames its fixed point sets and L-BFGS run away: BENCHMARK.md)",
-                    args.setting, args.dataset,
-                    !has_2d ? "no push-broom lidar (rig.yaml: no lidar of kind 2d)" : "a single-pose trajectory");
+    const std::string misfit = SettingMisfit(dataset.rig, dataset.trajectory.size());
+    if (!misfit.empty()) {
+      spdlog::error("--setting {} on {}: {}", args.setting, args.dataset, misfit);
       return kExitInvalidInput;
     }
     if (const auto border = SettingRefreshBorder(args, dataset.rig)) {
@@ -409,15 +379,8 @@ CommandRunner AddCalibrateCommand(CLI::App& app) {
       ->check(CLI::IsMember({"once", "joint", "alt"}))
       ->capture_default_str();
   args->command = command;
-  command->add_option("--setting", args->setting,
-                      "A named bundle of options measured together; any of them given on the command line keeps its "
-                      "own value. push-broom (a moving 2D lidar, good odometry: RTK-INS, lidar odometry): "
-                      "--swathe-length 30 --range-split 6 --thin 2 --lower-solver lbfgs --image-highpass 0.0234, "
-                      "--refresh-border 3.75 % of the widest image (48 px at 1280), and with --scheme alt "
-                      "--alternations 26 --stage-alternations 20. push-broom-drifting (visual odometry, ~0.01 deg/m): "
-                      "the same with --motion-correction turn instead of the high-pass. Recorded in the result's "
-                      "settings (README, \"What to expect\")")
-      ->check(CLI::IsMember({"push-broom", "push-broom-drifting"}));
+  command->add_option("--setting", args->setting, SettingHelp())
+      ->check(CLI::IsMember(SettingNames()));
   AddCostOptions(command, &args->cost);
   AddMotionCorrectionOptions(command, &args->motion);
   command->add_option("--lower-solver", args->lower_solver,

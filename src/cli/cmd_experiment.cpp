@@ -25,6 +25,7 @@
 #include "cli/commands.hpp"
 #include "cli/cost_arguments.hpp"
 #include "cli/load_input.hpp"
+#include "cli/setting.hpp"
 #include "cli/validators.hpp"
 #include "core/calibrate.hpp"
 #include "core/calibrate_alternating.hpp"
@@ -61,7 +62,39 @@ struct ExperimentArguments {
   double swathe_length_m = 10.0;
   int overlay_scenes = 1;
   bool force = false;
+  std::string setting;                // --setting (cli/setting.hpp)
+  const CLI::App* command = nullptr;  // to tell the options given on the command line from the defaults
 };
+
+bool GivenOnCommandLine(const ExperimentArguments& args, const std::string& name) {
+  const CLI::Option* option = args.command == nullptr ? nullptr : args.command->get_option_no_throw(name);
+  return option != nullptr && option->count() > 0;
+}
+
+// The options of args->setting: those the experiment has on its command line
+// (when not given there) into *args, the others into *options; what was set
+// is returned as typed. --refresh-border follows the images (set once the
+// dataset is open).
+std::vector<std::string> ApplySetting(ExperimentArguments* args, CalibrationOptions* options) {
+  std::vector<std::string> words;
+  const bool with_alt = std::find(args->schemes.begin(), args->schemes.end(), "alt") != args->schemes.end();
+  for (const SettingOption& option : SettingOptions(args->setting, with_alt)) {
+    if (GivenOnCommandLine(*args, option.name)) continue;  // the user's own value wins
+    if (option.name == "--swathe-length") args->swathe_length_m = option.number;
+    if (option.name == "--lower-solver") args->lower_solver = option.value;
+    if (option.name == "--alternations") args->alternations = static_cast<int>(option.number);
+    if (option.name == "--stage-alternations") args->stage_alternations = static_cast<int>(option.number);
+    if (option.name == "--range-split") options->range_split_m = option.number;
+    if (option.name == "--thin") options->thin_max_points_per_cell = static_cast<int>(option.number);
+    if (option.name == "--image-highpass") options->normalisation.intensity_highpass_width_fraction = option.number;
+    if (option.name == "--motion-correction") {
+      options->motion_correction = true;
+      options->motion.turn = option.value == "turn";
+    }
+    words.push_back(option.name + " " + option.value);
+  }
+  return words;
+}
 
 // Everything recorded of one calibration for one lidar.
 struct RunRecord {
@@ -218,15 +251,17 @@ bool CheckArguments(const ExperimentArguments& args, std::string* why) {
   return true;
 }
 
-int RunExperiment(const ExperimentArguments& args) {
+int RunExperiment(const ExperimentArguments& given) {
   const auto start = std::chrono::steady_clock::now();
   const auto elapsed_s = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
   std::string why;
-  if (!CheckArguments(args, &why)) {
+  if (!CheckArguments(given, &why)) {
     spdlog::error("{}", why);
     return kExitInvalidInput;
   }
   CalibrationOptions options;
+  ExperimentArguments args = given;
+  std::vector<std::string> setting_words = ApplySetting(&args, &options);
   options.scenes.scenes_per_camera = args.scenes;
   options.scenes.swathe_length_m = args.swathe_length_m;
   options.nelder_mead.max_iterations = args.max_iterations;
@@ -312,6 +347,19 @@ int RunExperiment(const ExperimentArguments& args) {
   if (!dataset.ground_truth) {
     spdlog::error("{}: the experiment compares with the truth and needs ground_truth.yaml", dataset_path);
     return kExitInvalidInput;
+  }
+  if (!args.setting.empty()) {
+    const std::string misfit = SettingMisfit(dataset.rig, dataset.trajectory.size());
+    if (!misfit.empty()) {
+      spdlog::error("--setting {} on {}: {}", args.setting, dataset_path, misfit);
+      return kExitInvalidInput;
+    }
+    int widest = 0;
+    for (const CameraInfo& camera : dataset.rig.cameras) widest = std::max(widest, camera.model.width);
+    options.cost.swathe.refresh_border_px = SettingRefreshBorderPx(widest);
+    setting_words.push_back(fmt::format("--refresh-border {:g}", options.cost.swathe.refresh_border_px));
+    spdlog::info("--setting {}: {}", args.setting, fmt::join(setting_words, " "));
+    settings["setting"] = fmt::format("{}: {}", args.setting, fmt::join(setting_words, " "));
   }
   // The experiment has no --bins: single-frame 3D-lidar data gets calibrate's automatic defaults.
   const std::string single_frame_defaults = ApplySingleFrameDefaults(dataset, false, &options);
@@ -598,6 +646,8 @@ CommandRunner AddExperimentCommand(CLI::App& app) {
       ->check(CLI::Range(0, 100))
       ->capture_default_str();
   command->add_flag("--force", args->force, "Replace OUTPUT/dataset when simulating into a non-empty one");
+  args->command = command;
+  command->add_option("--setting", args->setting, SettingHelp())->check(CLI::IsMember(SettingNames()));
   return [args] { return RunExperiment(*args); };
 }
 

@@ -1,0 +1,71 @@
+#include "cli/setting.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include <fmt/format.h>
+
+namespace scenecal::cli {
+
+namespace {
+
+constexpr double kSwatheLengthM = 30.0;
+constexpr double kRangeSplitM = 6.0;
+constexpr double kThinPointsPerCell = 2.0;
+constexpr double kRefreshBorderFraction = 0.0375;  // of the image width: 48 px at 1280
+constexpr double kHighpassFraction = 0.0234;       // of the image width: 30 px at 1280
+constexpr double kAlternations = 26.0;
+constexpr double kStageAlternations = 20.0;
+
+SettingOption Number(const char* name, double value) { return {name, fmt::format("{:g}", value), value}; }
+
+}  // namespace
+
+const std::vector<std::string>& SettingNames() {
+  static const std::vector<std::string> names{"push-broom", "push-broom-drifting"};
+  return names;
+}
+
+std::vector<SettingOption> SettingOptions(const std::string& setting, bool with_alt) {
+  if (setting != "push-broom" && setting != "push-broom-drifting") return {};
+  std::vector<SettingOption> options{Number("--swathe-length", kSwatheLengthM),
+                                     Number("--range-split", kRangeSplitM),
+                                     Number("--thin", kThinPointsPerCell),
+                                     {"--lower-solver", "lbfgs"}};
+  if (setting == "push-broom-drifting") {
+    // The drift misplaces the texture: no high-pass; each frame's swathe re-posed instead.
+    options.push_back({"--motion-correction", "turn"});
+  } else {
+    options.push_back(Number("--image-highpass", kHighpassFraction));
+  }
+  if (with_alt) {
+    options.push_back(Number("--alternations", kAlternations));
+    options.push_back(Number("--stage-alternations", kStageAlternations));
+  }
+  return options;
+}
+
+double SettingRefreshBorderPx(int widest_image_px) { return std::round(kRefreshBorderFraction * widest_image_px); }
+
+std::string SettingMisfit(const Rig& rig, std::size_t trajectory_poses) {
+  const bool has_2d = std::any_of(rig.lidars.begin(), rig.lidars.end(),
+                                  [](const LidarInfo& lidar) { return lidar.kind == LidarKind::k2d; });
+  const char* why = !has_2d               ? "no push-broom lidar (rig.yaml: no lidar of kind 2d)"
+                    : trajectory_poses < 2 ? "a single-pose trajectory"
+                                           : nullptr;
+  if (why == nullptr) return "";
+  return fmt::format("the data have {}; the setting is for swathes that a moving 2D (push-broom) lidar builds over a "
+                     "drive (on single frames its fixed point sets and L-BFGS run away: BENCHMARK.md)",
+                     why);
+}
+
+std::string SettingHelp() {
+  return "A named bundle of options measured together; any of them given on the command line keeps its own value. "
+         "push-broom (a moving 2D lidar, good odometry: RTK-INS, lidar odometry): --swathe-length 30 --range-split 6 "
+         "--thin 2 --lower-solver lbfgs --image-highpass 0.0234, --refresh-border 3.75 % of the widest image (48 px "
+         "at 1280), and for the alt scheme --alternations 26 --stage-alternations 20. push-broom-drifting (visual "
+         "odometry, ~0.01 deg/m): the same with --motion-correction turn instead of the high-pass. Recorded in the "
+         "result's settings (README, \"What to expect\")";
+}
+
+}  // namespace scenecal::cli
