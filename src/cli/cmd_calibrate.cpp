@@ -63,17 +63,12 @@ struct CalibrateArguments {
   std::vector<std::string> setting_words;  // what --setting set (filled by ApplySetting)
 };
 
-bool GivenOnCommandLine(const CalibrateArguments& args, const std::string& name) {
-  const CLI::Option* option = args.command == nullptr ? nullptr : args.command->get_option_no_throw(name);
-  return option != nullptr && option->count() > 0;
-}
-
 // Sets the options of args->setting (cli/setting.hpp) that the command line
 // did not give, and lists them in args->setting_words; --refresh-border
 // follows the images and is set once the dataset is open.
 void ApplySetting(CalibrateArguments* args) {
   for (const SettingOption& option : SettingOptions(args->setting, args->scheme == "alt")) {
-    if (GivenOnCommandLine(*args, option.name)) continue;  // the user's own value wins
+    if (GivenOnCommandLine(args->command, option.name)) continue;  // the user's own value wins
     if (option.name == "--swathe-length") args->cost.swathe_length_m = option.number;
     if (option.name == "--range-split") args->cost.range_split_m = option.number;
     if (option.name == "--thin") args->cost.thin = static_cast<int>(option.number);
@@ -89,7 +84,7 @@ void ApplySetting(CalibrateArguments* args) {
 // The setting's --refresh-border for this rig, or nothing when there is no
 // setting or the option was given.
 std::optional<double> SettingRefreshBorder(const CalibrateArguments& args, const Rig& rig) {
-  if (args.setting.empty() || GivenOnCommandLine(args, "--refresh-border")) return std::nullopt;
+  if (args.setting.empty() || GivenOnCommandLine(args.command, "--refresh-border")) return std::nullopt;
   int widest = 0;
   for (const CameraInfo& camera : rig.cameras) widest = std::max(widest, camera.model.width);
   return SettingRefreshBorderPx(widest);
@@ -122,7 +117,7 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
     } else if (options.cost.histogram.binning != Binning::kBSpline) {
       spdlog::error("--lower-solver lbfgs{} needs --binning bspline: with --binning {} the cost is piecewise constant "
                     "and has no gradient (use --lower-solver simplex for hard binning)",
-                    GivenOnCommandLine(args, "--lower-solver") ? "" : " (from --setting " + args.setting + ")",
+                    GivenOnCommandLine(args.command, "--lower-solver") ? "" : " (from --setting " + args.setting + ")",
                     args.cost.binning);
       return kExitInvalidInput;
     }

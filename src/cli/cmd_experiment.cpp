@@ -66,11 +66,6 @@ struct ExperimentArguments {
   const CLI::App* command = nullptr;  // to tell the options given on the command line from the defaults
 };
 
-bool GivenOnCommandLine(const ExperimentArguments& args, const std::string& name) {
-  const CLI::Option* option = args.command == nullptr ? nullptr : args.command->get_option_no_throw(name);
-  return option != nullptr && option->count() > 0;
-}
-
 // The options of args->setting: those the experiment has on its command line
 // (when not given there) into *args, the others into *options; what was set
 // is returned as typed. --refresh-border follows the images (set once the
@@ -79,7 +74,7 @@ std::vector<std::string> ApplySetting(ExperimentArguments* args, CalibrationOpti
   std::vector<std::string> words;
   const bool with_alt = std::find(args->schemes.begin(), args->schemes.end(), "alt") != args->schemes.end();
   for (const SettingOption& option : SettingOptions(args->setting, with_alt)) {
-    if (GivenOnCommandLine(*args, option.name)) continue;  // the user's own value wins
+    if (GivenOnCommandLine(args->command, option.name)) continue;  // the user's own value wins
     if (option.name == "--swathe-length") args->swathe_length_m = option.number;
     if (option.name == "--lower-solver") args->lower_solver = option.value;
     if (option.name == "--alternations") args->alternations = static_cast<int>(option.number);

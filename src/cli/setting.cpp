@@ -21,6 +21,11 @@ SettingOption Number(const char* name, double value) { return {name, fmt::format
 
 }  // namespace
 
+bool GivenOnCommandLine(const CLI::App* command, const std::string& name) {
+  const CLI::Option* option = command == nullptr ? nullptr : command->get_option_no_throw(name);
+  return option != nullptr && option->count() > 0;
+}
+
 const std::vector<std::string>& SettingNames() {
   static const std::vector<std::string> names{"push-broom", "push-broom-drifting"};
   return names;

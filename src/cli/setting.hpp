@@ -9,9 +9,14 @@
 #include <string>
 #include <vector>
 
+#include <CLI/CLI.hpp>
+
 #include "core/rig.hpp"
 
 namespace scenecal::cli {
+
+// Whether `name` was given on `command`'s command line (false for a null command).
+bool GivenOnCommandLine(const CLI::App* command, const std::string& name);
 
 // The setting names, for the option's check: push-broom (good odometry),
 // push-broom-drifting (visual odometry, ~0.01 deg/m).
