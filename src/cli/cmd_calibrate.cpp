@@ -85,9 +85,7 @@ void ApplySetting(CalibrateArguments* args) {
 // setting or the option was given.
 std::optional<double> SettingRefreshBorder(const CalibrateArguments& args, const Rig& rig) {
   if (args.setting.empty() || GivenOnCommandLine(args.command, "--refresh-border")) return std::nullopt;
-  int widest = 0;
-  for (const CameraInfo& camera : rig.cameras) widest = std::max(widest, camera.model.width);
-  return SettingRefreshBorderPx(widest);
+  return SettingRefreshBorderPx(rig);
 }
 
 // One line on an estimate's error against the truth: FORMAT.md's translation and

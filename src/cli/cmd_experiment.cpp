@@ -349,9 +349,7 @@ int RunExperiment(const ExperimentArguments& given) {
       spdlog::error("--setting {} on {}: {}", args.setting, dataset_path, misfit);
       return kExitInvalidInput;
     }
-    int widest = 0;
-    for (const CameraInfo& camera : dataset.rig.cameras) widest = std::max(widest, camera.model.width);
-    options.cost.swathe.refresh_border_px = SettingRefreshBorderPx(widest);
+    options.cost.swathe.refresh_border_px = SettingRefreshBorderPx(dataset.rig);
     setting_words.push_back(fmt::format("--refresh-border {:g}", options.cost.swathe.refresh_border_px));
     spdlog::info("--setting {}: {}", args.setting, fmt::join(setting_words, " "));
     settings["setting"] = fmt::format("{}: {}", args.setting, fmt::join(setting_words, " "));

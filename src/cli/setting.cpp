@@ -50,7 +50,11 @@ std::vector<SettingOption> SettingOptions(const std::string& setting, bool with_
   return options;
 }
 
-double SettingRefreshBorderPx(int widest_image_px) { return std::round(kRefreshBorderFraction * widest_image_px); }
+double SettingRefreshBorderPx(const Rig& rig) {
+  int widest_px = 0;
+  for (const CameraInfo& camera : rig.cameras) widest_px = std::max(widest_px, camera.model.width);
+  return std::round(kRefreshBorderFraction * widest_px);
+}
 
 std::string SettingMisfit(const Rig& rig, std::size_t trajectory_poses) {
   const bool has_2d = std::any_of(rig.lidars.begin(), rig.lidars.end(),

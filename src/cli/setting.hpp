@@ -34,9 +34,9 @@ struct SettingOption {
 // follows the images: SettingRefreshBorderPx.
 std::vector<SettingOption> SettingOptions(const std::string& setting, bool with_alt);
 
-// The setting's --refresh-border for a rig whose widest image is this wide:
-// 3.75 % of it (48 px at 1280).
-double SettingRefreshBorderPx(int widest_image_px);
+// The setting's --refresh-border for this rig: 3.75 % of its widest image
+// (48 px at 1280).
+double SettingRefreshBorderPx(const Rig& rig);
 
 // Why `setting` does not fit a dataset with this rig and this many trajectory
 // poses (no 2D lidar; a single pose: on single frames its fixed point sets and
