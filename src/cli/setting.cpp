@@ -32,7 +32,8 @@ const std::vector<std::string>& SettingNames() {
 }
 
 std::vector<SettingOption> SettingOptions(const std::string& setting, bool with_alt) {
-  if (setting != "push-broom" && setting != "push-broom-drifting") return {};
+  const std::vector<std::string>& names = SettingNames();
+  if (std::find(names.begin(), names.end(), setting) == names.end()) return {};
   std::vector<SettingOption> options{Number("--swathe-length", kSwatheLengthM),
                                      Number("--range-split", kRangeSplitM),
                                      Number("--thin", kThinPointsPerCell),
@@ -69,12 +70,30 @@ std::string SettingMisfit(const Rig& rig, std::size_t trajectory_poses) {
 }
 
 std::string SettingHelp() {
-  return "A named bundle of options measured together; any of them given on the command line keeps its own value. "
-         "push-broom (a moving 2D lidar, good odometry: RTK-INS, lidar odometry): --swathe-length 30 --range-split 6 "
-         "--thin 2 --lower-solver lbfgs --image-highpass 0.0234, --refresh-border 3.75 % of the widest image (48 px "
-         "at 1280), and for the alt scheme --alternations 26 --stage-alternations 20. push-broom-drifting (visual "
-         "odometry, ~0.01 deg/m): the same with --motion-correction turn instead of the high-pass. Recorded in the "
-         "result's settings (README, \"What to expect\")";
+  // Written from the lists above, so that the help says what the settings do.
+  const auto typed = [](const std::vector<SettingOption>& options) {
+    std::string words;
+    for (const SettingOption& option : options) words += (words.empty() ? "" : " ") + option.name + " " + option.value;
+    return words;
+  };
+  const auto only_in = [](const std::vector<SettingOption>& a, const std::vector<SettingOption>& b) {
+    std::vector<SettingOption> left;
+    for (const SettingOption& option : a) {
+      const auto same_name = [&](const SettingOption& other) { return other.name == option.name; };
+      if (std::none_of(b.begin(), b.end(), same_name)) left.push_back(option);
+    }
+    return left;
+  };
+  const std::vector<SettingOption> good = SettingOptions("push-broom", false);
+  const std::vector<SettingOption> drifting = SettingOptions("push-broom-drifting", false);
+  return fmt::format(
+      "A named bundle of options measured together; any of them given on the command line keeps its own value. "
+      "push-broom (a moving 2D lidar, good odometry: RTK-INS, lidar odometry): {}, --refresh-border {:g} % of the "
+      "widest image ({:g} px at 1280), and for the alt scheme {}. push-broom-drifting (visual odometry, ~0.01 "
+      "deg/m): the same with {} instead of {}. Recorded in the result's settings (README, \"What to expect\")",
+      typed(good), 100.0 * kRefreshBorderFraction, std::round(kRefreshBorderFraction * 1280.0),
+      typed(only_in(SettingOptions("push-broom", true), good)), typed(only_in(drifting, good)),
+      typed(only_in(good, drifting)));
 }
 
 }  // namespace scenecal::cli
