@@ -320,10 +320,10 @@ CalibrationOutcome FinishAlternating(AlternatingSetup& setup, const AlternatingR
   for (const OptimisationStage& s : options.stages) {
     stages += (stages.empty() ? "" : "; ") + std::string("step x") + Number(s.step_scale) + " blur " + Number(s.blur_fraction);
   }
+  const int span = StageSpan(alternating);
   result.settings["stages"] =
-      stages + (StageSpan(alternating) < alternating.max_alternations
-                    ? " (spread over the first " + std::to_string(StageSpan(alternating)) +
-                          " alternations; the rest in the last stage)"
+      stages + (span < alternating.max_alternations
+                    ? " (spread over the first " + std::to_string(span) + " alternations; the rest in the last stage)"
                     : std::string(" (spread over the alternations)"));
   result.settings["time_budget_s"] = Number(alternating.time_budget_s);
   result.termination = "alt " + std::string(MetricKindName(options.cost.metric)) + ": " + solved.termination + ", " +
