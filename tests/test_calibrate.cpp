@@ -299,7 +299,7 @@ TEST_F(CalibrateOnSimulation, CliExitCodes) {
                        " --motion-correction turn,pitch",
                    &motion_text),
             2);
-  EXPECT_NE(motion_text.find("pitch not in {turn,scale,roll}"), std::string::npos) << motion_text;
+  EXPECT_NE(motion_text.find("pitch not in {turn,scale,roll,drive-scale}"), std::string::npos) << motion_text;
   EXPECT_EQ(RunCli("calibrate " + DatasetPath().string() + " --output " + output.string() +
                        " --scenes 4 --motion-correction turn --motion-max-rate 5",
                    &motion_text),
@@ -353,21 +353,30 @@ TEST_F(CalibrateOnSimulation, CliSettingFillsTheOptionsNotGivenAndRefusesARigWit
   std::string text;
   ASSERT_EQ(RunCli("calibrate " + DatasetPath().string() + " --output " + output.string() +
                        " --setting push-broom-drifting --scheme joint --swathe-length 12 --scenes 4 "
-                       "--lbfgs-iterations 3 --stages 1 --no-uncertainty --no-basin-check",
+                       "--lbfgs-iterations 3 --stages 1,0.3 --no-uncertainty --no-basin-check",
                    &text),
             0)
       << text;
   const YAML::Node settings = YAML::LoadFile(output.string())["settings"];
   const std::string setting = settings["setting"].as<std::string>();
   const std::string border = std::to_string(static_cast<int>(std::lround(0.0375 * widest)));
-  EXPECT_EQ(setting, "push-broom-drifting: --range-split 6 --thin 2 --lower-solver lbfgs --motion-correction turn "
-                     "--refresh-border " + border);
+  EXPECT_EQ(setting, "push-broom-drifting: --range-split 6 --thin 2 --lower-solver lbfgs --motion-correction "
+                     "turn,drive-scale --refresh-border " + border);
   // The options the command line gave keep their values; the setting's are in force.
   EXPECT_EQ(settings["swathe_length_m"].as<std::string>(), "12");
   EXPECT_EQ(settings["refresh_border_px"].as<std::string>(), border);
   EXPECT_NE(settings["lower_solver"].as<std::string>().find("lbfgs"), std::string::npos);
   EXPECT_EQ(settings["intensity_highpass"].as<std::string>(), "off");  // drifting odometry: no high-pass
-  EXPECT_NE(settings["motion_correction"].as<std::string>().find("turn"), std::string::npos);
+  EXPECT_NE(settings["motion_correction"].as<std::string>().find(": drive-scale turn ("), std::string::npos);
+  // Corrected before the second stage: each frame's own turn, one scale for the whole drive.
+  std::set<double> drive_scales;
+  int turned = 0;
+  for (const YAML::Node& frame : YAML::LoadFile(output.string())["motion_correction"]) {
+    drive_scales.insert(frame["scale_percent"].as<double>());
+    turned += frame["turn_a_deg_per_m"].as<double>() != 0.0 ? 1 : 0;
+  }
+  EXPECT_GT(turned, 0);
+  EXPECT_EQ(drive_scales.size(), 1u);
   EXPECT_EQ(settings["thinning"].as<std::string>().rfind("2 points per", 0), 0u);
   EXPECT_EQ(settings["range_split_m"].as<std::string>(), "6");
   EXPECT_NE(text.find("--setting push-broom-drifting: --range-split 6"), std::string::npos) << text;
@@ -592,6 +601,45 @@ TEST_F(CalibrateOnSimulation, ThinningKeepsFewerPointsOfLongSwathesAndTheSameMin
   EXPECT_NE(result.settings.at("thinning").find("2 points per 4 px cell"), std::string::npos);
 }
 
+// The fixture's left and right pairs (6 frames, 20 m swathes) with every
+// frame's scans re-posed by drift(frame's index in time order), the pairs at
+// the true extrinsic: a drift the correction should undo.
+struct DriftedPairs {
+  std::map<TimeUs, SwatheMotionCorrection> injected;  // per image time
+  std::vector<std::unique_ptr<PairCost>> costs;
+  std::vector<PairCost*> pairs;
+  std::vector<Eigen::Isometry3d> T_camera_lidar;
+};
+DriftedPairs BuildDriftedPairs(const io::Dataset& dataset,
+                               const std::function<SwatheMotionCorrection(std::size_t frame)>& drift) {
+  CalibrationOptions options;
+  options.scenes.scenes_per_camera = 6;
+  options.scenes.swathe_length_m = 20.0;
+  CalibrationInput input = test::LoadCalibrationInput(dataset, options.scenes);
+  const Eigen::Isometry3d truth = dataset.ground_truth->T_base_lidar.at("lms_rear");
+  DriftedPairs drifted;
+  for (Scene& scene : input.selection.scenes) {
+    if (drifted.injected.count(scene.image_t_us) == 0)
+      drifted.injected[scene.image_t_us] = drift(drifted.injected.size());
+    std::vector<TimeUs> times;
+    std::vector<Eigen::Isometry3d> poses;
+    for (const SwatheScan& scan : scene.scans) {
+      times.push_back(scan.t_us);
+      poses.push_back(scan.T_basek_basej);
+    }
+    poses = CorrectSwatheMotion(times, poses, scene.image_t_us, drifted.injected[scene.image_t_us]);
+    for (std::size_t i = 0; i < poses.size(); ++i) scene.scans[i].T_basek_basej = poses[i];
+  }
+  for (const char* name : {"left", "right"}) {
+    const CameraInfo& camera = *input.rig.FindCamera(name);
+    drifted.costs.push_back(std::make_unique<PairCost>(BuildPairCost(input, camera, "lms_rear", options)));
+    drifted.pairs.push_back(drifted.costs.back().get());
+    drifted.T_camera_lidar.push_back(camera.T_base_camera.inverse() * truth);
+    drifted.costs.back()->RefreshVisibility(drifted.T_camera_lidar.back());
+  }
+  return drifted;
+}
+
 // The drift correction finds a drift put into the swathes on purpose: every
 // frame's scans re-posed by turn rates across the travel (+-0.03 and -+0.02
 // deg/m, alternating from frame to frame; the simulator drifts by ~0.01), the
@@ -599,40 +647,17 @@ TEST_F(CalibrateOnSimulation, ThinningKeepsFewerPointsOfLongSwathesAndTheSameMin
 // cameras sharing each frame's.
 TEST_F(CalibrateOnSimulation, MotionCorrectionFindsADriftPutIntoTheSwathes) {
   const io::Dataset dataset = io::OpenDataset(DatasetPath());
-  CalibrationOptions options;
-  options.scenes.scenes_per_camera = 6;
-  options.scenes.swathe_length_m = 20.0;
-  CalibrationInput input = Load(dataset, options.scenes);
-  const Eigen::Isometry3d truth = dataset.ground_truth->T_base_lidar.at("lms_rear");
-  std::map<TimeUs, SwatheMotionCorrection> injected;
-  for (Scene& scene : input.selection.scenes) {
-    if (injected.count(scene.image_t_us) == 0) {
-      const double sign = injected.size() % 2 == 0 ? 1.0 : -1.0;
-      injected[scene.image_t_us] = {0.0, sign * RadiansFromDegrees(0.03), -sign * RadiansFromDegrees(0.02), 0.0};
-    }
-    std::vector<TimeUs> times;
-    std::vector<Eigen::Isometry3d> poses;
-    for (const SwatheScan& scan : scene.scans) {
-      times.push_back(scan.t_us);
-      poses.push_back(scan.T_basek_basej);
-    }
-    poses = CorrectSwatheMotion(times, poses, scene.image_t_us, injected[scene.image_t_us]);
-    for (std::size_t i = 0; i < poses.size(); ++i) scene.scans[i].T_basek_basej = poses[i];
-  }
-  std::vector<std::unique_ptr<PairCost>> costs;
-  std::vector<PairCost*> pairs;
-  std::vector<Eigen::Isometry3d> T_camera_lidar;
-  for (const char* name : {"left", "right"}) {
-    const CameraInfo& camera = *input.rig.FindCamera(name);
-    costs.push_back(std::make_unique<PairCost>(BuildPairCost(input, camera, "lms_rear", options)));
-    pairs.push_back(costs.back().get());
-    T_camera_lidar.push_back(camera.T_base_camera.inverse() * truth);
-    ASSERT_GT(costs.back()->RefreshVisibility(T_camera_lidar.back()), 3);
-  }
+  const DriftedPairs drifted = BuildDriftedPairs(dataset, [](std::size_t frame) {
+    const double sign = frame % 2 == 0 ? 1.0 : -1.0;
+    return SwatheMotionCorrection{0.0, sign * RadiansFromDegrees(0.03), -sign * RadiansFromDegrees(0.02), 0.0};
+  });
+  const std::vector<PairCost*>& pairs = drifted.pairs;
+  const std::map<TimeUs, SwatheMotionCorrection>& injected = drifted.injected;
+  for (const PairCost* pair : pairs) ASSERT_GT(pair->UsedSceneCount(), 3);
   const MotionCorrectionOptions motion;  // the turn rates, within 0.05 deg/m
   std::string why;
   ASSERT_TRUE(motion.IsValid(&why)) << why;
-  const MotionCorrectionSummary summary = EstimateMotionCorrections(pairs, T_camera_lidar, motion);
+  const MotionCorrectionSummary summary = EstimateMotionCorrections(pairs, drifted.T_camera_lidar, motion);
   EXPECT_GE(summary.frames, 4);
   EXPECT_LT(summary.cost_after, summary.cost_before);
   // Each frame's correction against the drift it should undo (to first order: its negative).
@@ -657,6 +682,39 @@ TEST_F(CalibrateOnSimulation, MotionCorrectionFindsADriftPutIntoTheSwathes) {
   std::cout << "[ measured ] drift correction: residual " << relative * 100.0 << " % of the drift put in over "
             << compared << " scenes; frame cost " << summary.cost_before << " -> " << summary.cost_after << "\n";
   EXPECT_LT(relative, 0.35);
+}
+
+// The drive's scale: every frame's swathe stretched by the same 1.5 % (an
+// odometry's scale bias; the simulator's is ~0.4 %), found as one value shared
+// by every frame from all frames' costs at the true extrinsic.
+TEST_F(CalibrateOnSimulation, MotionCorrectionFindsTheDrivesScale) {
+  const io::Dataset dataset = io::OpenDataset(DatasetPath());
+  constexpr double kPut = 0.015;
+  const DriftedPairs drifted =
+      BuildDriftedPairs(dataset, [](std::size_t) { return SwatheMotionCorrection{kPut, 0.0, 0.0, 0.0}; });
+  for (const PairCost* pair : drifted.pairs) ASSERT_GT(pair->UsedSceneCount(), 3);
+  MotionCorrectionOptions motion;
+  motion.turn = false;
+  motion.drive_scale = true;
+  motion.max_scale = 0.04;
+  std::string why;
+  ASSERT_TRUE(motion.IsValid(&why)) << why;
+  const MotionCorrectionSummary summary = EstimateMotionCorrections(drifted.pairs, drifted.T_camera_lidar, motion);
+  EXPECT_GT(summary.drive_evaluations, 0);
+  EXPECT_LT(summary.cost_after, summary.cost_before);
+  std::set<double> found;
+  for (const SwatheMotionCorrection& correction : summary.corrections) {
+    if (correction.IsZero()) continue;  // a frame left out of the cost
+    found.insert(correction.scale);
+    EXPECT_EQ(correction.turn_a_rad_per_m, 0.0);  // not estimated
+    EXPECT_EQ(correction.turn_b_rad_per_m, 0.0);
+  }
+  ASSERT_EQ(found.size(), 1u) << "the drive's scale is one value for every frame";
+  const double scale = *found.begin();
+  std::cout << "[ measured ] drive scale: " << scale * 100.0 << " % against " << -kPut * 100.0 << " % to undo; cost "
+            << summary.cost_before << " -> " << summary.cost_after << "\n";
+  // To first order the correction undoes the stretch: (1 + found)(1 + put) = 1.
+  EXPECT_LT(std::abs(scale + kPut), 0.35 * kPut);
 }
 
 // The CLI records the drift correction: the setting, and each frame's
@@ -703,6 +761,35 @@ TEST_F(CalibrateOnSimulation, MotionCorrectionCliWritesEachFramesCorrection) {
   EXPECT_LE(per_camera["left"], 4);
   EXPECT_GT(turned, 0);
  }
+}
+
+// In alt the drift correction belongs to the trajectory: with two lidars,
+// every frame's correction (turn rates and the drive's scale) is estimated
+// from both lidars' swathes together and recorded the same for each.
+TEST_F(CalibrateOnSimulation, MotionCorrectionInAltIsSharedByTheLidars) {
+  const fs::path dataset = root_ / "trinocular";
+  test::SimulateSmallTrinocular(dataset);
+  const fs::path output = root_ / "motion_two_lidars.yaml";
+  std::string text;
+  ASSERT_EQ(RunCli("calibrate " + dataset.string() + " --output " + output.string() +
+                       " --scheme alt --alternations 6 --scenes 3 --motion-correction turn,drive-scale"
+                       " --no-uncertainty --no-basin-check",
+                   &text),
+            0)
+      << text;
+  EXPECT_NE(text.find("motion correction (alternation 3, lidars lms_rear, lms_front, 6 pair(s))"), std::string::npos)
+      << text;
+  std::map<std::string, std::map<long long, std::pair<double, double>>> turns;  // by lidar, then image time
+  std::set<double> scales;
+  for (const YAML::Node& frame : YAML::LoadFile(output.string())["motion_correction"]) {
+    turns[frame["lidar"].as<std::string>()][frame["image_t_us"].as<long long>()] = {
+        frame["turn_a_deg_per_m"].as<double>(), frame["turn_b_deg_per_m"].as<double>()};
+    scales.insert(frame["scale_percent"].as<double>());
+  }
+  ASSERT_EQ(turns.size(), 2u);
+  EXPECT_FALSE(turns["lms_rear"].empty());
+  EXPECT_EQ(turns["lms_rear"], turns["lms_front"]);
+  EXPECT_EQ(scales.size(), 1u);
 }
 
 // The cost machinery (swathe composition, projection, bilinear sampling,

@@ -241,7 +241,8 @@ TEST_F(ExperimentCli, SettingFillsTheOptionsNotGiven) {
                    log),
             0)
       << ReadText(log);
-  const std::string words = "--range-split 6 --thin 2 --lower-solver lbfgs --motion-correction turn --refresh-border 12";
+  const std::string words =
+      "--range-split 6 --thin 2 --lower-solver lbfgs --motion-correction turn,drive-scale --refresh-border 12";
   EXPECT_NE(ReadText(log).find("--setting push-broom-drifting: " + words), std::string::npos) << ReadText(log);
   // The same experiment without the setting ends elsewhere: its options were in force.
   const fs::path plain = Root() / "setting_plain";

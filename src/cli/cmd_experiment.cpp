@@ -83,8 +83,9 @@ std::vector<std::string> ApplySetting(ExperimentArguments* args, CalibrationOpti
     if (option.name == "--thin") options->thin_max_points_per_cell = static_cast<int>(option.number);
     if (option.name == "--image-highpass") options->normalisation.intensity_highpass_width_fraction = option.number;
     if (option.name == "--motion-correction") {
-      options->motion_correction = true;
-      options->motion.turn = option.value == "turn";
+      MotionCorrectionArguments motion;  // calibrate's defaults for the rest
+      motion.terms = MotionCorrectionTerms(option.value);
+      ApplyMotionCorrectionArguments(motion, options);
     }
     words.push_back(option.name + " " + option.value);
   }

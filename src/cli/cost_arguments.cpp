@@ -1,6 +1,7 @@
 #include "cli/cost_arguments.hpp"
 
 #include <algorithm>
+#include <sstream>
 
 #include <spdlog/spdlog.h>
 
@@ -196,11 +197,13 @@ void AddMotionCorrectionOptions(CLI::App* command, MotionCorrectionArguments* ar
                       "Correct each camera frame's swathe for odometry drift, for long swathes (--swathe-length 30) "
                       "from drifting odometry: the terms to estimate, a comma list of turn (rates across the "
                       "travel: heading and pitch), scale (of the distance travelled) and roll (rate about the "
-                      "travel); each frame's from its own cost at the current estimate, before each stage from "
-                      "--motion-correction-from-stage on (every scheme; alt: before the first alternation of each "
-                      "stage, at the upper estimates, shared by the lower levels). Off when not given")
+                      "travel), each frame's from its own cost, and drive-scale (one scale for the whole drive, "
+                      "from all frames' costs together: the odometry's scale bias); at the current estimate, before "
+                      "each stage from --motion-correction-from-stage on (every scheme; alt: before the first alternation of each "
+                      "stage, at the upper estimates, shared by the lower levels and by every lidar's swathes of a frame: "
+                      "the drift is the trajectory's). Off when not given")
       ->delimiter(',')
-      ->check(CLI::IsMember({"turn", "scale", "roll"}));
+      ->check(CLI::IsMember({"turn", "scale", "roll", "drive-scale"}));
   command->add_option("--motion-correction-from-stage", args->first_stage,
                       "First coarse-to-fine stage (0-based) before which the drift correction is estimated (from "
                       "the first, the guess's own error is taken for drift)")
@@ -224,6 +227,7 @@ void ApplyMotionCorrectionArguments(const MotionCorrectionArguments& args, Calib
   options->motion.scale = has_term("scale");
   options->motion.turn = has_term("turn");
   options->motion.roll = has_term("roll");
+  options->motion.drive_scale = has_term("drive-scale");
   options->motion_correction_first_stage = args.first_stage;
   options->motion.max_scale = args.max_scale_percent / 100.0;
   options->motion.max_rate_rad_per_m = RadiansFromDegrees(args.max_rate_deg_per_m);
@@ -231,6 +235,13 @@ void ApplyMotionCorrectionArguments(const MotionCorrectionArguments& args, Calib
   options->motion.initial_step_scale = std::min(options->motion.initial_step_scale, options->motion.max_scale);
   options->motion.initial_step_rate_rad_per_m =
       std::min(options->motion.initial_step_rate_rad_per_m, options->motion.max_rate_rad_per_m);
+}
+
+std::vector<std::string> MotionCorrectionTerms(const std::string& comma_list) {
+  std::vector<std::string> terms;
+  std::istringstream list(comma_list);
+  for (std::string term; std::getline(list, term, ',');) terms.push_back(term);
+  return terms;
 }
 
 }  // namespace scenecal::cli

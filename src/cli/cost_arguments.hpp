@@ -64,13 +64,15 @@ void ApplyCostArguments(const CostArguments& args, CalibrationOptions* options);
 
 // The per-frame drift correction of `calibrate` (CalibrationOptions::motion_correction).
 struct MotionCorrectionArguments {
-  std::vector<std::string> terms;  // of scale, turn, roll; empty = off
+  std::vector<std::string> terms;  // of turn, scale, roll, drive-scale; empty = off
   int first_stage = 1;
   double max_scale_percent = 2.0;
   double max_rate_deg_per_m = 0.05;
 };
 void AddMotionCorrectionOptions(CLI::App* command, MotionCorrectionArguments* args);
 void ApplyMotionCorrectionArguments(const MotionCorrectionArguments& args, CalibrationOptions* options);
+// The terms of a --motion-correction value written as one comma list (as a --setting gives it).
+std::vector<std::string> MotionCorrectionTerms(const std::string& comma_list);
 
 // Caps TBB's worker threads at `threads` while the returned object lives;
 // nothing (no cap) for 0 = all hardware threads.

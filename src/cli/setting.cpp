@@ -39,8 +39,9 @@ std::vector<SettingOption> SettingOptions(const std::string& setting, bool with_
                                      Number("--thin", kThinPointsPerCell),
                                      {"--lower-solver", "lbfgs"}};
   if (setting == "push-broom-drifting") {
-    // The drift misplaces the texture: no high-pass; each frame's swathe re-posed instead.
-    options.push_back({"--motion-correction", "turn"});
+    // The drift misplaces the texture: no high-pass; each frame's swathe re-posed instead, with the
+    // odometry's scale bias shared by the whole drive.
+    options.push_back({"--motion-correction", "turn,drive-scale"});
   } else {
     options.push_back(Number("--image-highpass", kHighpassFraction));
   }

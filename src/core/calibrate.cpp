@@ -155,8 +155,9 @@ void RecordCommonSettings(const CalibrationOptions& options, CalibrationResult* 
                              : "off";
   settings["motion_correction"] =
       options.motion_correction
-          ? fmt::format("per frame from stage {}: {}{}{}(scale within {} %, rates within {} deg/m)",
-                        options.motion_correction_first_stage, options.motion.scale ? "scale " : "",
+          ? fmt::format("per frame from stage {}: {}{}{}{}(scale within {} %, rates within {} deg/m)",
+                        options.motion_correction_first_stage, options.motion.drive_scale ? "drive-scale " : "",
+                        options.motion.scale ? "scale " : "",
                         options.motion.turn ? "turn " : "", options.motion.roll ? "roll " : "",
                         FormatNumber(100.0 * options.motion.max_scale),
                         FormatNumber(DegreesFromRadians(options.motion.max_rate_rad_per_m)))

@@ -112,8 +112,9 @@ struct CalibrationOptions {
   // swathe gets the scale and pitch and heading rates that minimise its own
   // cost at the current estimate (PairCost::EstimateMotionCorrections), held
   // during the stage (alt: estimated at the upper estimates before the stage's
-  // first alternation, AlternatingSetup::BatchHook). For long swathes from
-  // drifting odometry.
+  // first alternation, for every lidar's pairs together, AlternatingSetup::
+  // BatchHook; the other schemes per lidar). For long swathes from drifting
+  // odometry.
   bool motion_correction = false;
   int motion_correction_first_stage = 1;
   MotionCorrectionOptions motion;

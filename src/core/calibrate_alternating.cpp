@@ -117,24 +117,33 @@ LowerLevelBatchHook AlternatingSetup::BatchHook(const CalibrationOptions& option
         alternation == 0 || StageIndexForAlternation(stages.size(), alternation - 1, span) != stage_index;
     if (!stage_starts || stage_index < static_cast<std::size_t>(first_stage)) return;
     const OptimisationStage& stage = stages[stage_index];
+    // Every lidar's pairs together: the drift belongs to the trajectory, so the
+    // lidars' swathes of one camera frame share its correction (and the drive's scale).
+    std::vector<PairCost*> pairs;
+    std::vector<Eigen::Isometry3d> T_camera_lidar;
+    std::string lidars;
+    int lidar_count = 0;
     for (std::size_t l = 0; l < problem.lidars.size(); ++l) {
-      std::vector<PairCost*> pairs;
-      std::vector<Eigen::Isometry3d> T_camera_lidar;
+      bool used = false;
       for (const LowerLevelTask& task : tasks) {
         const std::size_t p = static_cast<std::size_t>(task.pair);
         if (p >= costs.size() || problem.pairs[p].lidar != static_cast<int>(l)) continue;
         PreparePairForStage(*costs[p], stage, task.T_camera_lidar_upper);
         pairs.push_back(costs[p].get());
         T_camera_lidar.push_back(task.T_camera_lidar_upper);
+        used = true;
       }
-      if (pairs.empty()) continue;
-      const MotionCorrectionSummary summary = EstimateMotionCorrections(pairs, T_camera_lidar, motion);
-      // Each lower level refreshes its visibility before it runs (Objectives' prepare).
-      if (progress) {
-        progress("motion correction (alternation " + std::to_string(alternation + 1) + ", lidar " +
-                 problem.lidars[l].name + ", " + std::to_string(pairs.size()) +
-                 " pair(s)): " + DescribeMotionCorrection(summary));
-      }
+      if (!used) continue;
+      lidars += (lidars.empty() ? "" : ", ") + problem.lidars[l].name;
+      ++lidar_count;
+    }
+    if (pairs.empty()) return;
+    const MotionCorrectionSummary summary = EstimateMotionCorrections(pairs, T_camera_lidar, motion);
+    // Each lower level refreshes its visibility before it runs (Objectives' prepare).
+    if (progress) {
+      progress("motion correction (alternation " + std::to_string(alternation + 1) +
+               (lidar_count > 1 ? ", lidars " : ", lidar ") + lidars + ", " +
+               std::to_string(pairs.size()) + " pair(s)): " + DescribeMotionCorrection(summary));
     }
   };
 }
@@ -190,8 +199,8 @@ std::uint64_t AlternatingSetup::Fingerprint(const CalibrationOptions& options,
   if (options.motion_correction) {
     const MotionCorrectionOptions& motion = options.motion;
     digest.Add(static_cast<std::uint64_t>(options.motion_correction_first_stage));
-    digest.Add(static_cast<std::uint64_t>(motion.scale) * 4 + static_cast<std::uint64_t>(motion.turn) * 2 +
-               static_cast<std::uint64_t>(motion.roll));
+    digest.Add(static_cast<std::uint64_t>(motion.drive_scale) * 8 + static_cast<std::uint64_t>(motion.scale) * 4 +
+               static_cast<std::uint64_t>(motion.turn) * 2 + static_cast<std::uint64_t>(motion.roll));
     digest.Add(motion.max_scale);
     digest.Add(motion.max_rate_rad_per_m);
     digest.Add(motion.initial_step_scale);

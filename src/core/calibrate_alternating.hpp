@@ -28,8 +28,9 @@ struct AlternatingSetup {
   std::vector<PairObjective> Objectives(const CalibrationOptions& options, const AlternatingOptions& alternating);
   // With options.motion_correction, the backend's batch hook: on the first
   // alternation of every stage from options.motion_correction_first_stage on,
-  // each lidar's pairs are prepared for the stage at their upper estimates and
-  // share each frame's drift correction (EstimateMotionCorrections), held until
+  // every pair is prepared for the stage at its upper estimate and the pairs of
+  // all lidars share each frame's drift correction and the drive's scale
+  // (EstimateMotionCorrections; the drift is the trajectory's), held until
   // the next stage; `progress` (may be empty) hears how far the frames' costs
   // fell. Empty without the correction.
   LowerLevelBatchHook BatchHook(const CalibrationOptions& options, const AlternatingOptions& alternating,

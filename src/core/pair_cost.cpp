@@ -34,7 +34,7 @@ bool MotionCorrectionOptions::IsValid(std::string* why) const {
   if (!(initial_step_rate_rad_per_m > 0.0 && initial_step_rate_rad_per_m <= max_rate_rad_per_m))
     return fail("motion correction: initial_step_rate_rad_per_m must be in (0, max_rate_rad_per_m]");
   if (max_iterations < 1) return fail("motion correction: max_iterations must be at least 1");
-  if (!scale && !turn && !roll) return fail("motion correction: no term to estimate");
+  if (!scale && !turn && !roll && !drive_scale) return fail("motion correction: no term to estimate");
   return true;
 }
 
@@ -232,38 +232,76 @@ MotionCorrectionSummary EstimateMotionCorrections(const std::vector<PairCost*>& 
     return SwatheMotionCorrection{terms[0], terms[1], terms[2], terms[3]};
   };
 
+  const auto frame_cost = [](const std::vector<Member>& members) {
+    double sum = 0.0;
+    for (const Member& member : members) sum += member.pair->SceneCost(member.scene, *member.T_camera_lidar, nullptr);
+    return sum / static_cast<double>(members.size());
+  };
+
+  MotionCorrectionSummary summary;
+  // The drive's scale first: one value in every frame, scored by the mean of
+  // all frames' costs, so that it cannot follow each frame's own misfit the
+  // way a per-frame scale does.
+  double drive_cost_before = std::numeric_limits<double>::quiet_NaN();
+  if (options.drive_scale && !groups.empty()) {
+    std::vector<double> costs(groups.size());
+    const auto drive_cost = [&](const Eigen::VectorXd& candidate) {
+      if (std::abs(candidate[0]) > options.max_scale) return std::numeric_limits<double>::infinity();
+      tbb::parallel_for(std::size_t{0}, groups.size(), [&](std::size_t g) {
+        const std::vector<Member>& members = *groups[g];
+        SwatheMotionCorrection correction = members.front().pair->scenes_[members.front().scene].MotionCorrection();
+        correction.scale = candidate[0];
+        apply(members, correction);
+        costs[g] = frame_cost(members);
+      });
+      double sum = 0.0;
+      for (const double c : costs) sum += c;
+      return sum / static_cast<double>(costs.size());
+    };
+    const std::vector<Member>& first = *groups.front();
+    Eigen::VectorXd x(1);
+    x[0] = first.front().pair->scenes_[first.front().scene].MotionCorrection().scale;
+    NelderMeadOptions nelder_mead;
+    nelder_mead.max_iterations = options.max_iterations;
+    const Eigen::VectorXd step = Eigen::VectorXd::Constant(1, options.initial_step_scale);
+    const NelderMeadSummary drive = MinimiseNelderMead(drive_cost, step, step * 0.01, nelder_mead, &x);
+    drive_cost(x);  // leave every frame at the answer
+    summary.drive_evaluations = drive.evaluations;
+    drive_cost_before = drive.initial_value;
+  }
+
   struct FrameOutcome {
     int evaluations = 0;
     double before = 0.0, after = 0.0;
   };
   std::vector<FrameOutcome> outcomes(groups.size());
-  tbb::parallel_for(std::size_t{0}, groups.size(), [&](std::size_t g) {
-    const std::vector<Member>& members = *groups[g];
-    const auto frame_cost = [&]() {
-      double sum = 0.0;
-      for (const Member& member : members) sum += member.pair->SceneCost(member.scene, *member.T_camera_lidar, nullptr);
-      return sum / static_cast<double>(members.size());
-    };
-    const SwatheMotionCorrection start = members.front().pair->scenes_[members.front().scene].MotionCorrection();
-    const Eigen::Vector4d start_terms(start.scale, start.turn_a_rad_per_m, start.turn_b_rad_per_m,
-                                      start.roll_rad_per_m);
-    Eigen::VectorXd x(n);
-    for (Eigen::Index i = 0; i < n; ++i) x[i] = start_terms[free_terms[static_cast<std::size_t>(i)]];
-    NelderMeadOptions nelder_mead;
-    nelder_mead.max_iterations = options.max_iterations;
-    const auto cost = [&](const Eigen::VectorXd& candidate) {
-      if ((candidate.array().abs() > free_bounds.array()).any()) {
-        return std::numeric_limits<double>::infinity();  // outside the bounds: worse than any cost
-      }
-      apply(members, from_vector(candidate, start_terms));
-      return frame_cost();
-    };
-    const NelderMeadSummary summary = MinimiseNelderMead(cost, steps, steps * 0.01, nelder_mead, &x);
-    apply(members, from_vector(x, start_terms));
-    outcomes[g] = {summary.evaluations, summary.initial_value, summary.final_value};
-  });
+  if (n > 0) {
+    tbb::parallel_for(std::size_t{0}, groups.size(), [&](std::size_t g) {
+      const std::vector<Member>& members = *groups[g];
+      const SwatheMotionCorrection start = members.front().pair->scenes_[members.front().scene].MotionCorrection();
+      const Eigen::Vector4d start_terms(start.scale, start.turn_a_rad_per_m, start.turn_b_rad_per_m,
+                                        start.roll_rad_per_m);
+      Eigen::VectorXd x(n);
+      for (Eigen::Index i = 0; i < n; ++i) x[i] = start_terms[free_terms[static_cast<std::size_t>(i)]];
+      NelderMeadOptions nelder_mead;
+      nelder_mead.max_iterations = options.max_iterations;
+      const auto cost = [&](const Eigen::VectorXd& candidate) {
+        if ((candidate.array().abs() > free_bounds.array()).any()) {
+          return std::numeric_limits<double>::infinity();  // outside the bounds: worse than any cost
+        }
+        apply(members, from_vector(candidate, start_terms));
+        return frame_cost(members);
+      };
+      const NelderMeadSummary frame = MinimiseNelderMead(cost, steps, steps * 0.01, nelder_mead, &x);
+      apply(members, from_vector(x, start_terms));
+      outcomes[g] = {frame.evaluations, frame.initial_value, frame.final_value};
+    });
+  } else {  // the drive's scale alone
+    tbb::parallel_for(std::size_t{0}, groups.size(), [&](std::size_t g) {
+      outcomes[g].before = outcomes[g].after = frame_cost(*groups[g]);
+    });
+  }
 
-  MotionCorrectionSummary summary;
   for (const FrameOutcome& outcome : outcomes) {
     ++summary.frames;
     summary.evaluations += outcome.evaluations;
@@ -274,6 +312,7 @@ MotionCorrectionSummary EstimateMotionCorrections(const std::vector<PairCost*>& 
     summary.cost_before /= summary.frames;
     summary.cost_after /= summary.frames;
   }
+  if (!std::isnan(drive_cost_before)) summary.cost_before = drive_cost_before;
   for (const PairCost* pair : pairs)
     for (const SceneSwathe& scene : pair->scenes_) summary.corrections.push_back(scene.MotionCorrection());
   return summary;

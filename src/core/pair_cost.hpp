@@ -47,6 +47,10 @@ struct MotionCorrectionOptions {
   bool scale = false;
   bool turn = true;   // both rates across the travel (heading and pitch, whichever way the base is turned)
   bool roll = false;  // the rate about the travel
+  // One scale error for the whole drive (the odometry's scale bias), shared by
+  // every frame and estimated from all frames' costs together before the
+  // per-frame terms; with `scale` as well, each frame then refines it.
+  bool drive_scale = false;
   double max_scale = 0.02;                         // |scale| bound (fraction)
   double max_rate_rad_per_m = 8.7266e-4;           // bound on each rate (0.05 deg/m)
   double initial_step_scale = 0.004;               // simplex steps
@@ -61,6 +65,7 @@ struct MotionCorrectionSummary {
   int evaluations = 0;       // frame-cost evaluations, all frames
   double cost_before = 0.0;  // mean over the frames of their cost before and after
   double cost_after = 0.0;
+  int drive_evaluations = 0;  // of the drive's scale (options.drive_scale), all frames each
   std::vector<SwatheMotionCorrection> corrections;  // per scene: the pairs' Scenes() one after the other
 };
 

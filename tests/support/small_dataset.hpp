@@ -1,5 +1,6 @@
 // Test support: a small simulated RobotCar dataset (stereo + rear push-broom
-// lidar, 480x360 images, 120 m, exact odometry) and the calibration input that
+// lidar, 480x360 images, 120 m, exact odometry; or the trinocular rig on the
+// same drive) and the calibration input that
 // `scenecal calibrate` would load from it.
 #pragma once
 
@@ -15,7 +16,7 @@
 
 namespace scenecal::test {
 
-inline void SimulateSmallRobotCar(const std::filesystem::path& root, std::uint64_t seed = 1) {
+inline sim::SimulationOptions SmallSimulationOptions(std::uint64_t seed) {
   sim::SimulationOptions options;
   options.seed = seed;
   options.distance_m = 120.0;
@@ -25,6 +26,17 @@ inline void SimulateSmallRobotCar(const std::filesystem::path& root, std::uint64
   options.odometry_noise = 0.0;
   options.perturb_translation_m = 0.05;
   options.perturb_rotation_deg = 2.0;
+  return options;
+}
+
+inline void SimulateSmallRobotCar(const std::filesystem::path& root, std::uint64_t seed = 1) {
+  sim::Simulate(SmallSimulationOptions(seed), root);
+}
+
+// The same drive with the trinocular rig: three cameras, rear and front push-broom lidars.
+inline void SimulateSmallTrinocular(const std::filesystem::path& root) {
+  sim::SimulationOptions options = SmallSimulationOptions(1);
+  options.preset = sim::Preset::kTrinocular;
   sim::Simulate(options, root);
 }
 
