@@ -38,10 +38,11 @@ struct PairCostOptions {
   bool IsValid(std::string* why = nullptr) const;
 };
 
-// Per-frame odometry drift correction (SwatheMotionCorrection), estimated by
+// Odometry drift correction (SwatheMotionCorrection), estimated by
 // EstimateMotionCorrections (below): for each camera frame, the terms that
 // minimise that frame's own cost at a fixed T_camera_lidar, within the bounds
-// (Nelder-Mead, from the frame's previous correction).
+// (Nelder-Mead, from the frame's previous correction); the drive's scale from
+// all frames together.
 struct MotionCorrectionOptions {
   // Which terms are estimated (the others keep the frame's current values: 0 at first); at least one.
   bool scale = false;
@@ -144,9 +145,11 @@ class PairCost {
 // Estimates each frame's SwatheMotionCorrection with every pair at its
 // T_camera_lidar (one per pair) and applies it to their swathes: the used
 // scenes with the same image time, over all pairs (the cameras of a rig that
-// fire together, a frame's range bands), share one correction and minimise
-// their mean cost. Frames are independent (in parallel). Uses the scene states
-// of each pair's last refresh. Between optimiser runs only.
+// fire together, a frame's range bands, several lidars), share one correction
+// and minimise their mean cost. With options.drive_scale the scale is first
+// chosen for all frames together (the mean of the frames' costs); then the
+// frames' own terms, independently (in parallel). Uses the scene states of
+// each pair's last refresh. Between optimiser runs only.
 MotionCorrectionSummary EstimateMotionCorrections(const std::vector<PairCost*>& pairs,
                                                   const std::vector<Eigen::Isometry3d>& T_camera_lidar,
                                                   const MotionCorrectionOptions& options);
