@@ -367,7 +367,8 @@ TEST_F(CalibrateOnSimulation, CliSettingFillsTheOptionsNotGivenAndRefusesARigWit
   EXPECT_EQ(settings["refresh_border_px"].as<std::string>(), border);
   EXPECT_NE(settings["lower_solver"].as<std::string>().find("lbfgs"), std::string::npos);
   EXPECT_EQ(settings["intensity_highpass"].as<std::string>(), "off");  // drifting odometry: no high-pass
-  EXPECT_NE(settings["motion_correction"].as<std::string>().find(": drive-scale turn ("), std::string::npos);
+  EXPECT_NE(settings["motion_correction"].as<std::string>().find("from stage 1: drive-scale; per frame: turn ("),
+            std::string::npos);
   // Corrected before the second stage: each frame's own turn, one scale for the whole drive.
   std::set<double> drive_scales;
   int turned = 0;
@@ -737,7 +738,7 @@ TEST_F(CalibrateOnSimulation, MotionCorrectionCliWritesEachFramesCorrection) {
             std::string::npos)
       << text;
   const YAML::Node root = YAML::LoadFile(output.string());
-  EXPECT_EQ(root["settings"]["motion_correction"].as<std::string>().rfind("per frame from stage 1: turn", 0), 0u);
+  EXPECT_EQ(root["settings"]["motion_correction"].as<std::string>().rfind("from stage 1: per frame: turn (", 0), 0u);
   const YAML::Node frames = root["motion_correction"];
   ASSERT_TRUE(frames.IsSequence());
   std::map<std::string, int> per_camera;

@@ -153,15 +153,19 @@ void RecordCommonSettings(const CalibrationOptions& options, CalibrationResult* 
                                            options.thin_max_points_per_cell, options.thin_cell_px,
                                            FormatNumber(options.thin_margin_px))
                              : "off";
-  settings["motion_correction"] =
-      options.motion_correction
-          ? fmt::format("per frame from stage {}: {}{}{}{}(scale within {} %, rates within {} deg/m)",
-                        options.motion_correction_first_stage, options.motion.drive_scale ? "drive-scale " : "",
-                        options.motion.scale ? "scale " : "",
-                        options.motion.turn ? "turn " : "", options.motion.roll ? "roll " : "",
-                        FormatNumber(100.0 * options.motion.max_scale),
-                        FormatNumber(DegreesFromRadians(options.motion.max_rate_rad_per_m)))
-          : "off";
+  if (options.motion_correction) {
+    const MotionCorrectionOptions& motion = options.motion;
+    std::string per_frame = std::string(motion.scale ? " scale" : "") + (motion.turn ? " turn" : "") +
+                            (motion.roll ? " roll" : "");
+    if (!per_frame.empty()) per_frame = "per frame:" + per_frame + " ";
+    settings["motion_correction"] =
+        fmt::format("from stage {}: {}{}(scale within {} %, rates within {} deg/m)",
+                    options.motion_correction_first_stage, motion.drive_scale ? "drive-scale; " : "", per_frame,
+                    FormatNumber(100.0 * motion.max_scale),
+                    FormatNumber(DegreesFromRadians(motion.max_rate_rad_per_m)));
+  } else {
+    settings["motion_correction"] = "off";
+  }
   settings["lidar_range_m"] =
       FormatNumber(options.cost.swathe.min_range_m) + " .. " + FormatNumber(options.cost.swathe.max_range_m);
   settings["threads"] = std::to_string(options.threads);
