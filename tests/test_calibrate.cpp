@@ -791,6 +791,16 @@ TEST_F(CalibrateOnSimulation, MotionCorrectionInAltIsSharedByTheLidars) {
   EXPECT_FALSE(turns["lms_rear"].empty());
   EXPECT_EQ(turns["lms_rear"], turns["lms_front"]);
   EXPECT_EQ(scales.size(), 1u);
+  const std::string per_lidar = "corrects the drift of each lidar alone";
+  EXPECT_EQ(text.find(per_lidar), std::string::npos) << text;
+  // joint corrects each lidar alone, and says so.
+  ASSERT_EQ(RunCli("calibrate " + dataset.string() + " --output " + (root_ / "motion_two_lidars_joint.yaml").string() +
+                       " --scheme joint --stages 1 --scenes 3 --motion-correction turn,drive-scale"
+                       " --no-uncertainty --no-basin-check",
+                   &text),
+            0)
+      << text;
+  EXPECT_NE(text.find(per_lidar), std::string::npos) << text;
 }
 
 // The cost machinery (swathe composition, projection, bilinear sampling,
