@@ -189,8 +189,7 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
   const double load_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   spdlog::info("loaded {} lidar points in {:.2f} s", loaded.lidar_points, load_s);
 
-  const bool has_push_broom = std::any_of(input.rig.lidars.begin(), input.rig.lidars.end(),
-                                          [](const LidarInfo& lidar) { return lidar.kind == LidarKind::k2d; });
+  const bool has_push_broom = input.rig.HasPushBroomLidar();
   if (has_push_broom && options.range_split_m <= 0.0) {
     // 10 m push-broom swathes leave the tilt nearly free (BENCHMARK.md, "Sixth session").
     spdlog::info("push-broom lidar: its tilt is weakly determined by 10 m swathes; on the simulated drives (rear "

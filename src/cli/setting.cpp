@@ -59,11 +59,9 @@ double SettingRefreshBorderPx(const Rig& rig) {
 }
 
 std::string SettingMisfit(const Rig& rig, std::size_t trajectory_poses) {
-  const bool has_2d = std::any_of(rig.lidars.begin(), rig.lidars.end(),
-                                  [](const LidarInfo& lidar) { return lidar.kind == LidarKind::k2d; });
-  const char* why = !has_2d               ? "no push-broom lidar (rig.yaml: no lidar of kind 2d)"
-                    : trajectory_poses < 2 ? "a single-pose trajectory"
-                                           : nullptr;
+  const char* why = !rig.HasPushBroomLidar() ? "no push-broom lidar (rig.yaml: no lidar of kind 2d)"
+                    : trajectory_poses < 2     ? "a single-pose trajectory"
+                                               : nullptr;
   if (why == nullptr) return "";
   return fmt::format("the data have {}; the setting is for swathes that a moving 2D (push-broom) lidar builds over a "
                      "drive (on single frames its fixed point sets and L-BFGS run away: BENCHMARK.md)",

@@ -5,6 +5,8 @@
 #include <cstring>
 #include <sstream>
 
+#include <fmt/format.h>
+
 namespace scenecal {
 namespace {
 
@@ -121,29 +123,25 @@ LowerLevelBatchHook AlternatingSetup::BatchHook(const CalibrationOptions& option
     // lidars' swathes of one camera frame share its correction (and the drive's scale).
     std::vector<PairCost*> pairs;
     std::vector<Eigen::Isometry3d> T_camera_lidar;
-    std::string lidars;
-    int lidar_count = 0;
+    std::vector<std::string> lidars;  // those with a pair in the batch
     for (std::size_t l = 0; l < problem.lidars.size(); ++l) {
-      bool used = false;
+      const std::size_t before = pairs.size();
       for (const LowerLevelTask& task : tasks) {
         const std::size_t p = static_cast<std::size_t>(task.pair);
         if (p >= costs.size() || problem.pairs[p].lidar != static_cast<int>(l)) continue;
         PreparePairForStage(*costs[p], stage, task.T_camera_lidar_upper);
         pairs.push_back(costs[p].get());
         T_camera_lidar.push_back(task.T_camera_lidar_upper);
-        used = true;
       }
-      if (!used) continue;
-      lidars += (lidars.empty() ? "" : ", ") + problem.lidars[l].name;
-      ++lidar_count;
+      if (pairs.size() > before) lidars.push_back(problem.lidars[l].name);
     }
     if (pairs.empty()) return;
     const MotionCorrectionSummary summary = EstimateMotionCorrections(pairs, T_camera_lidar, motion);
     // Each lower level refreshes its visibility before it runs (Objectives' prepare).
     if (progress) {
-      progress("motion correction (alternation " + std::to_string(alternation + 1) +
-               (lidar_count > 1 ? ", lidars " : ", lidar ") + lidars + ", " +
-               std::to_string(pairs.size()) + " pair(s)): " + DescribeMotionCorrection(summary));
+      progress(fmt::format("motion correction (alternation {}, {} {}, {} pair(s)): {}", alternation + 1,
+                           lidars.size() > 1 ? "lidars" : "lidar", fmt::join(lidars, ", "), pairs.size(),
+                           DescribeMotionCorrection(summary)));
     }
   };
 }

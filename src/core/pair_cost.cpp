@@ -243,8 +243,8 @@ MotionCorrectionSummary EstimateMotionCorrections(const std::vector<PairCost*>& 
   // all frames' costs, so that it cannot follow each frame's own misfit the
   // way a per-frame scale does.
   double drive_cost_before = std::numeric_limits<double>::quiet_NaN();
+  std::vector<double> costs(groups.size());  // each frame's, at the drive's scale last tried
   if (options.drive_scale && !groups.empty()) {
-    std::vector<double> costs(groups.size());
     const auto drive_cost = [&](const Eigen::VectorXd& candidate) {
       if (std::abs(candidate[0]) > options.max_scale) return std::numeric_limits<double>::infinity();
       tbb::parallel_for(std::size_t{0}, groups.size(), [&](std::size_t g) {
@@ -296,10 +296,8 @@ MotionCorrectionSummary EstimateMotionCorrections(const std::vector<PairCost*>& 
       apply(members, from_vector(x, start_terms));
       outcomes[g] = {frame.evaluations, frame.initial_value, frame.final_value};
     });
-  } else {  // the drive's scale alone
-    tbb::parallel_for(std::size_t{0}, groups.size(), [&](std::size_t g) {
-      outcomes[g].before = outcomes[g].after = frame_cost(*groups[g]);
-    });
+  } else {  // the drive's scale alone: the frames' costs at its answer, from its last evaluation
+    for (std::size_t g = 0; g < groups.size(); ++g) outcomes[g].before = outcomes[g].after = costs[g];
   }
 
   for (const FrameOutcome& outcome : outcomes) {

@@ -14,4 +14,8 @@ const LidarInfo* Rig::FindLidar(const std::string& name) const {
   return it == lidars.end() ? nullptr : &*it;
 }
 
+bool Rig::HasPushBroomLidar() const {
+  return std::any_of(lidars.begin(), lidars.end(), [](const LidarInfo& l) { return l.kind == LidarKind::k2d; });
+}
+
 }  // namespace scenecal

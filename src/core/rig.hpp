@@ -39,6 +39,7 @@ struct Rig {
 
   const CameraInfo* FindCamera(const std::string& name) const;
   const LidarInfo* FindLidar(const std::string& name) const;
+  bool HasPushBroomLidar() const;  // a lidar of kind 2d
 };
 
 struct GroundTruth {
