@@ -325,6 +325,56 @@ TEST(Simulator, OdometryIsExactWithoutNoiseAndDriftsWithIt) {
   fs::remove_all(drift_dir);
 }
 
+// The drift's parts (simulate --odometry-drift): each part left out is zero,
+// the parts kept are exactly those of the whole drift, and together they add
+// up to it.
+TEST(Simulator, OdometryDriftPartsAreThoseOfTheWholeDrift) {
+  const OdometryDrift whole(7, 1.0);
+  const OdometryDrift bias_only(7, 1.0, {true, false, false});
+  const OdometryDrift waves_only(7, 1.0, {false, true, false});
+  const OdometryDrift rates_only(7, 1.0, {false, false, true});
+  double largest_wave = 0.0, largest_rate = 0.0;
+  for (double s = 0.0; s <= 400.0; s += 7.3) {
+    SCOPED_TRACE(s);
+    EXPECT_EQ(bias_only.ScaleError(s), bias_only.ScaleError(0.0));  // a constant
+    EXPECT_EQ(bias_only.YawRateError(s), 0.0);
+    EXPECT_EQ(waves_only.PitchRateError(s), 0.0);
+    EXPECT_EQ(rates_only.ScaleError(s), 0.0);
+    EXPECT_NEAR(bias_only.ScaleError(s) + waves_only.ScaleError(s), whole.ScaleError(s), 1e-15);
+    EXPECT_EQ(rates_only.YawRateError(s), whole.YawRateError(s));
+    EXPECT_EQ(rates_only.PitchRateError(s), whole.PitchRateError(s));
+    largest_wave = std::max(largest_wave, std::abs(waves_only.ScaleError(s)));
+    largest_rate = std::max(largest_rate, std::abs(rates_only.YawRateError(s)));
+  }
+  EXPECT_NE(bias_only.ScaleError(0.0), 0.0);
+  EXPECT_GT(largest_wave, 1e-4);                  // a wander of tenths of a percent
+  EXPECT_GT(largest_rate, RadiansFromDegrees(0.002));  // and rates of ~0.01 deg/m
+
+  // The odometry of a drive with the rates alone keeps every step's length.
+  std::vector<Eigen::Isometry3d> truth;
+  std::vector<double> distance_m;
+  for (int i = 0; i <= 100; ++i) {
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    pose.translation() = Eigen::Vector3d(0.5 * i, 0.0, 0.0);
+    pose.linear() = Eigen::AngleAxisd(0.002 * i, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    truth.push_back(pose);
+    distance_m.push_back(0.5 * i);
+  }
+  const std::vector<Eigen::Isometry3d> turned = rates_only.Apply(truth, distance_m);
+  const std::vector<Eigen::Isometry3d> drifted = whole.Apply(truth, distance_m);
+  double largest_length_change = 0.0, largest_whole_change = 0.0;
+  for (std::size_t i = 0; i + 1 < truth.size(); ++i) {
+    const double length = (truth[i].inverse() * truth[i + 1]).translation().norm();
+    largest_length_change = std::max(
+        largest_length_change, std::abs((turned[i].inverse() * turned[i + 1]).translation().norm() - length));
+    largest_whole_change = std::max(
+        largest_whole_change, std::abs((drifted[i].inverse() * drifted[i + 1]).translation().norm() - length));
+  }
+  EXPECT_LT(largest_length_change, 1e-12);
+  EXPECT_GT(largest_whole_change, 1e-5);  // the whole drift does change them
+  EXPECT_GT(TranslationError(turned.back(), truth.back()), 1e-3);  // and the rates still turn the drive
+}
+
 TEST(World, RaysHitTheRoadAndFacadesWhereTheGeometrySays) {
   const World world = World::Generate(9, -20.0, 120.0);
   const CentreLine& line = world.centre_line();

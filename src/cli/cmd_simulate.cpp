@@ -1,8 +1,10 @@
 // `scenecal simulate`: writes a simulated street dataset (FORMAT.md) with ground truth.
+#include <algorithm>
 #include <cstdio>
 #include <memory>
 #include <regex>
 #include <string>
+#include <vector>
 
 #include <spdlog/spdlog.h>
 
@@ -18,6 +20,7 @@ struct SimulateArguments {
   std::string image_size;
   bool no_stop = false;
   bool no_shadows = false;
+  std::vector<std::string> drift_parts{"scale-bias", "scale-waves", "rates"};
   sim::SimulationOptions options;
 };
 
@@ -49,6 +52,14 @@ CommandRunner AddSimulateCommand(CLI::App& app) {
   cmd->add_option("--odometry-noise", o.odometry_noise,
                   "Scale of the odometry drift in trajectory.csv (0: true motion, 1: ~0.5% and ~0.01 deg/m)")
       ->capture_default_str();
+  cmd->add_option("--odometry-drift", args->drift_parts,
+                  "Which parts of the odometry drift to simulate, a comma list of scale-bias (one scale error for "
+                  "the whole drive), scale-waves (its wander along the drive) and rates (heading and pitch rate "
+                  "errors); the parts left out are zero and the others are exactly those of the whole drift (to "
+                  "study what each part does to a calibration)")
+      ->delimiter(',')
+      ->check(CLI::IsMember({"scale-bias", "scale-waves", "rates"}))
+      ->default_str("scale-bias,scale-waves,rates");
   cmd->add_option("--camera-perturb-translation", o.camera_perturb_translation_m,
                   "Make the known inter-camera transforms in rig.yaml wrong by this much (m)")
       ->capture_default_str();
@@ -76,6 +87,10 @@ CommandRunner AddSimulateCommand(CLI::App& app) {
     sim::ParsePreset(args->preset, &options.preset);
     options.include_stop = !args->no_stop;
     options.render.shadows = !args->no_shadows;
+    const auto has_part = [&](const char* part) {
+      return std::find(args->drift_parts.begin(), args->drift_parts.end(), part) != args->drift_parts.end();
+    };
+    options.odometry_drift_parts = {has_part("scale-bias"), has_part("scale-waves"), has_part("rates")};
     if (!args->image_size.empty()) {
       std::smatch match;
       const std::regex pattern(R"(^(\d{1,5})[xX](\d{1,5})$)");

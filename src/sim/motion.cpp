@@ -119,7 +119,7 @@ Eigen::Isometry3d Drive::T_world_vehicle(double t_s, const World& world) const {
 
 // ---------------------------------------------------------------------------
 
-OdometryDrift::OdometryDrift(std::uint64_t seed, double scale) : scale_(scale) {
+OdometryDrift::OdometryDrift(std::uint64_t seed, double scale, const OdometryDriftParts& parts) : scale_(scale) {
   KeyedRandom random(seed, 900);
   // Three waves of amplitude A have an RMS of A * sqrt(3 / 2); choose A for a target RMS.
   const auto waves = [&](double rms, double lambda_min, double lambda_max) {
@@ -135,6 +135,13 @@ OdometryDrift::OdometryDrift(std::uint64_t seed, double scale) : scale_(scale) {
   scale_waves_ = waves(0.003, 60.0, 400.0);
   yaw_ = waves(RadiansFromDegrees(0.01), 30.0, 300.0);
   pitch_ = waves(RadiansFromDegrees(0.01), 30.0, 300.0);
+  // Drawn above in any case: the parts kept are those of the whole drift.
+  if (!parts.scale_bias) scale_bias_ = 0.0;
+  if (!parts.scale_waves) scale_waves_.clear();
+  if (!parts.rate_waves) {
+    yaw_.clear();
+    pitch_.clear();
+  }
 }
 
 double OdometryDrift::Sum(const std::vector<Wave>& waves, double s) {

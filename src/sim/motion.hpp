@@ -52,12 +52,21 @@ class Drive {
   std::vector<Wave> pitch_, roll_, wander_;
 };
 
+// Which parts of the odometry drift are simulated (all by default). The parts
+// are drawn from the seed whether used or not, so that a dataset with some
+// parts left out drifts exactly as the whole one does in the parts it keeps.
+struct OdometryDriftParts {
+  bool scale_bias = true;   // a constant scale error over the drive (~0.4 %)
+  bool scale_waves = true;  // the scale error's wander along the drive (~0.3 % rms, 60-400 m)
+  bool rate_waves = true;   // heading and pitch rate errors (~0.01 deg/m rms each, 30-300 m)
+};
+
 // Odometry drift, all as smooth functions of distance travelled, scaled by
 // `scale` (0 = exact): a scale error of ~0.5 % and heading and pitch rate
-// errors of ~0.01 deg/m.
+// errors of ~0.01 deg/m; `parts` leaves some of them out.
 class OdometryDrift {
  public:
-  OdometryDrift(std::uint64_t seed, double scale);
+  OdometryDrift(std::uint64_t seed, double scale, const OdometryDriftParts& parts = {});
   double ScaleError(double s) const;        // fraction
   double YawRateError(double s) const;      // rad/m
   double PitchRateError(double s) const;    // rad/m

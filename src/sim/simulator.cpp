@@ -296,7 +296,7 @@ SimulationSummary Simulate(const SimulationOptions& options, const fs::path& out
     T_world_vehicle_grid.push_back(drive.T_world_vehicle(t_s, *world));
     distance_grid.push_back(drive.StreetPositionAt(t_s));
   }
-  const OdometryDrift drift(options.seed, options.odometry_noise);
+  const OdometryDrift drift(options.seed, options.odometry_noise, options.odometry_drift_parts);
   std::vector<Eigen::Isometry3d> T_world_base_odometry = drift.Apply(T_world_vehicle_grid, distance_grid);
   for (auto& T : T_world_base_odometry) T = T * simulated.T_vehicle_base;
   std::vector<TimeUs> true_times = grid;

@@ -46,6 +46,7 @@ struct SimulationOptions {
   double perturb_translation_m = 0.05;
   double perturb_rotation_deg = 2.0;
   double odometry_noise = 1.0;  // 0: trajectory.csv is the true motion; 1: default drift
+  OdometryDriftParts odometry_drift_parts;  // which parts of the drift (all by default)
   // The known inter-camera transforms in rig.yaml are wrong by these
   // magnitudes (m, deg); ground_truth.yaml then holds their true values.
   double camera_perturb_translation_m = 0.0;
