@@ -305,6 +305,10 @@ TEST_F(CalibrateOnSimulation, CliExitCodes) {
                    &motion_text),
             2);
   EXPECT_NE(motion_text.find("--motion-max-rate"), std::string::npos) << motion_text;
+  EXPECT_EQ(RunCli("calibrate " + DatasetPath().string() + " --output " + output.string() + " --odometry-scale 25",
+                   &motion_text),
+            2);
+  EXPECT_NE(motion_text.find("--odometry-scale"), std::string::npos) << motion_text;
   // Numbers out of their domain: the message says what was expected.
   std::string number_text;
   EXPECT_EQ(RunCli("calibrate " + DatasetPath().string() + " --output " + output.string() + " --sigma0-rotation 0",
@@ -353,7 +357,7 @@ TEST_F(CalibrateOnSimulation, CliSettingFillsTheOptionsNotGivenAndRefusesARigWit
   std::string text;
   ASSERT_EQ(RunCli("calibrate " + DatasetPath().string() + " --output " + output.string() +
                        " --setting push-broom-drifting --scheme joint --swathe-length 12 --scenes 4 "
-                       "--lbfgs-iterations 3 --stages 1,0.3 --no-uncertainty --no-basin-check",
+                       "--lbfgs-iterations 3 --stages 1,0.3 --no-uncertainty --no-basin-check --odometry-scale 0.25",
                    &text),
             0)
       << text;
@@ -364,6 +368,7 @@ TEST_F(CalibrateOnSimulation, CliSettingFillsTheOptionsNotGivenAndRefusesARigWit
                      "turn,drive-scale --refresh-border " + border);
   // The options the command line gave keep their values; the setting's are in force.
   EXPECT_EQ(settings["swathe_length_m"].as<std::string>(), "12");
+  EXPECT_EQ(settings["odometry_scale_percent"].as<std::string>(), "0.25");
   EXPECT_EQ(settings["refresh_border_px"].as<std::string>(), border);
   EXPECT_NE(settings["lower_solver"].as<std::string>().find("lbfgs"), std::string::npos);
   EXPECT_EQ(settings["intensity_highpass"].as<std::string>(), "off");  // drifting odometry: no high-pass

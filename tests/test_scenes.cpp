@@ -1,6 +1,9 @@
 // Scene selection and swathe windows on synthetic trajectories.
 #include <algorithm>
 #include <cmath>
+#include <map>
+#include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -60,6 +63,10 @@ TEST(Scenes, OptionsValidation) {
   EXPECT_TRUE(ParseSwatheDirection("both", &direction));
   EXPECT_EQ(direction, SwatheDirection::kBoth);
   EXPECT_FALSE(ParseSwatheDirection("sideways", &direction));
+  options = SceneOptions{};
+  options.odometry_scale = 0.25;
+  EXPECT_FALSE(options.IsValid(&why));
+  EXPECT_NE(why.find("odometry_scale"), std::string::npos);
 }
 
 TEST(Scenes, SpreadsFramesByDistanceAndSkipsStandingStill) {
@@ -211,6 +218,58 @@ TEST(Scenes, CachedRelativePoseMatchesDirectComputation) {
       EXPECT_LT(RotationErrorDegrees(scan.T_basek_basej, direct), 1e-3);
     }
   }
+}
+
+// A known odometry scale error (--odometry-scale): the scans' poses are those
+// of the trajectory with every distance stretched by 1 + scale, and their
+// rotations are untouched.
+TEST(Scenes, OdometryScaleStretchesTheScanPoses) {
+  const auto drive = [](double stretch) {
+    std::vector<TimeUs> times;
+    std::vector<Eigen::Isometry3d> poses;
+    for (int i = 0; i <= 2000; ++i) {  // 20 s at 100 Hz, turning and climbing
+      const double t = 0.01 * i;
+      Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+      pose.translation() = stretch * Eigen::Vector3d(30.0 * std::sin(0.1 * t), 30.0 * (1.0 - std::cos(0.1 * t)), 0.2 * t);
+      pose.linear() = RotationFromRollPitchYaw(0.01 * std::sin(t), 0.005 * t, 0.1 * t);
+      times.push_back(static_cast<TimeUs>(i) * kSecond / 100);
+      poses.push_back(pose);
+    }
+    return Trajectory(times, poses);
+  };
+  SceneOptions options;
+  options.scenes_per_camera = 3;
+  const std::map<std::string, std::vector<TimeUs>> images{{"left", Every(kSecond / 2, 0, 20 * kSecond)}};
+  const std::map<std::string, std::vector<TimeUs>> scans{{"rear", Every(kSecond / 50, 0, 20 * kSecond)}};
+  const SceneSelection as_given = SelectScenes(OneCameraOneLidar(), drive(1.0), images, scans, options);
+  const SceneSelection stretched = SelectScenes(OneCameraOneLidar(), drive(1.02), images, scans, options);
+  options.odometry_scale = 0.02;
+  const SceneSelection corrected = SelectScenes(OneCameraOneLidar(), drive(1.0), images, scans, options);
+  ASSERT_EQ(corrected.scenes.size(), as_given.scenes.size());
+  ASSERT_EQ(corrected.scenes.size(), 3u);
+  std::size_t compared = 0;
+  double largest_given_error = 0.0;
+  for (std::size_t s = 0; s < corrected.scenes.size(); ++s) {
+    const Scene& scene = corrected.scenes[s];
+    ASSERT_EQ(scene.scans.size(), as_given.scenes[s].scans.size());  // the window is the trajectory's own
+    for (std::size_t j = 0; j < scene.scans.size(); ++j) {
+      const Eigen::Isometry3d& given = as_given.scenes[s].scans[j].T_basek_basej;
+      EXPECT_NEAR((scene.scans[j].T_basek_basej.translation() - 1.02 * given.translation()).norm(), 0.0, 1e-9);
+      EXPECT_LT(RotationErrorDegrees(scene.scans[j].T_basek_basej, given), 1e-9);
+      // The same as a trajectory 2 % longer (compared where both windows hold the scan).
+      for (const Scene& other : stretched.scenes) {
+        if (other.image_t_us != scene.image_t_us) continue;
+        for (const SwatheScan& scan : other.scans) {
+          if (scan.t_us != scene.scans[j].t_us) continue;
+          EXPECT_LT(TranslationError(scene.scans[j].T_basek_basej, scan.T_basek_basej), 1e-6);
+          largest_given_error = std::max(largest_given_error, TranslationError(given, scan.T_basek_basej));
+          ++compared;
+        }
+      }
+    }
+  }
+  EXPECT_GT(compared, 100u);
+  EXPECT_GT(largest_given_error, 0.05);  // what the scale error would have left in the swathes
 }
 
 }  // namespace

@@ -83,6 +83,14 @@ void AddCostOptions(CLI::App* command, CostArguments* args) {
   command->add_option("--min-speed", args->min_speed_mps, "Frames taken below this speed (m/s) are skipped")
       ->check(kNonNegative)
       ->capture_default_str();
+  command->add_option("--odometry-scale", args->odometry_scale_percent,
+                      "A known scale error of the trajectory, in percent: its distances are taken as (1 + P / 100) "
+                      "x what it says (e.g. 0.3 when visual odometry reports them 0.3 % short, from GNSS or a "
+                      "measured drive). The images cannot tell a scale error from a shift of the lidar along the "
+                      "travel: each 0.1 % moves a push-broom lidar's estimate about 1.3 cm on the simulated drive "
+                      "(BENCHMARK.md, \"Thirteenth session\")")
+      ->check(CLI::Range(-19.9, 19.9))
+      ->capture_default_str();
   command->add_flag("--no-occlusion", args->no_occlusion, "Disable the z-buffer occlusion test");
   command->add_option("--occlusion-cell", args->occlusion_cell_px,
                       "Z-buffer cell in pixels (a point is hidden when a point of its cell is nearer by the margin); 0 = "
@@ -175,6 +183,7 @@ void ApplyCostArguments(const CostArguments& args, CalibrationOptions* options) 
   options->scenes.max_scans_per_scene = args.max_scans_per_scene;
   options->swathe_trim_margin_m = args.swathe_trim_margin_m;
   options->scenes.min_speed_mps = args.min_speed_mps;
+  options->scenes.odometry_scale = args.odometry_scale_percent / 100.0;
 }
 
 std::unique_ptr<tbb::global_control> LimitThreads(int threads) {

@@ -32,6 +32,7 @@ struct CostArguments {
   int max_scans_per_scene = 0;
   double swathe_trim_margin_m = 1.0;
   double min_speed_mps = 0.5;
+  double odometry_scale_percent = 0.0;  // a known scale error of the odometry
   bool no_occlusion = false;
   int occlusion_cell_px = 0;               // 0 = automatic (image width / 80)
   double occlusion_relative_margin = 0.2;  // hidden if depth > nearest * (1 + relative) + absolute

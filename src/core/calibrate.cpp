@@ -135,6 +135,7 @@ void RecordCommonSettings(const CalibrationOptions& options, CalibrationResult* 
   settings["scenes_per_camera"] = std::to_string(options.scenes.scenes_per_camera);
   settings["swathe_length_m"] = FormatNumber(options.scenes.swathe_length_m);
   settings["direction"] = SwatheDirectionName(options.scenes.direction);
+  settings["odometry_scale_percent"] = FormatNumber(100.0 * options.scenes.odometry_scale);
   settings["swathe_trim_margin_m"] = FormatNumber(options.swathe_trim_margin_m);
   settings["min_points_per_scene"] = std::to_string(options.cost.min_points_per_scene);
   settings["occlusion"] =

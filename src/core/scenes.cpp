@@ -34,6 +34,7 @@ bool SceneOptions::IsValid(std::string* why) const {
   if (!(min_speed_mps >= 0.0) || !std::isfinite(min_speed_mps)) return fail("min_speed_mps must be >= 0 (m/s)");
   if (!(speed_window_s > 0.0) || !std::isfinite(speed_window_s)) return fail("speed_window_s must be > 0 (s)");
   if (max_scans_per_scene < 0) return fail("max_scans_per_scene must be 0 (no cap) or positive");
+  if (!(std::abs(odometry_scale) < 0.2)) return fail("odometry_scale must be a fraction within (-0.2, 0.2)");
   return true;
 }
 
@@ -211,7 +212,9 @@ SceneSelection SelectScenes(const Rig& rig, const Trajectory& trajectory,
             ++pair_report.scans_without_pose;
             continue;
           }
-          scene.scans.push_back({t_j, T_world_basek.inverse() * *T_world_basej});
+          Eigen::Isometry3d T_basek_basej = T_world_basek.inverse() * *T_world_basej;
+          T_basek_basej.translation() *= 1.0 + options.odometry_scale;  // the relative position scales with the distances
+          scene.scans.push_back({t_j, T_basek_basej});
         }
         if (scene.scans.empty()) {
           ++pair_report.frames_without_scans;

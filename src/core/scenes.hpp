@@ -36,6 +36,12 @@ struct SceneOptions {
   double speed_window_s = 0.5;
   // Cap on scans per scene (evenly thinned when exceeded); 0 = no cap.
   int max_scans_per_scene = 0;
+  // A known scale error of the odometry (fraction; e.g. 0.003 when it reports
+  // distances 0.3 % short): the swathes' scan poses are built with every
+  // distance of the trajectory multiplied by 1 + odometry_scale. The images
+  // cannot tell a scale error from a shift of the lidar along the travel, so a
+  // scale known from elsewhere (GNSS, wheel odometry) belongs here.
+  double odometry_scale = 0.0;
 
   bool IsValid(std::string* why = nullptr) const;
 };
