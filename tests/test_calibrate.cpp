@@ -357,7 +357,7 @@ TEST_F(CalibrateOnSimulation, CliSettingFillsTheOptionsNotGivenAndRefusesARigWit
   std::string text;
   ASSERT_EQ(RunCli("calibrate " + DatasetPath().string() + " --output " + output.string() +
                        " --setting push-broom-drifting --scheme joint --swathe-length 12 --scenes 4 "
-                       "--lbfgs-iterations 3 --stages 1,0.3 --no-uncertainty --no-basin-check --odometry-scale 0.25",
+                       "--lbfgs-iterations 3 --stages 1,0.3 --no-uncertainty --no-basin-check",
                    &text),
             0)
       << text;
@@ -368,7 +368,6 @@ TEST_F(CalibrateOnSimulation, CliSettingFillsTheOptionsNotGivenAndRefusesARigWit
                      "turn,drive-scale --refresh-border " + border);
   // The options the command line gave keep their values; the setting's are in force.
   EXPECT_EQ(settings["swathe_length_m"].as<std::string>(), "12");
-  EXPECT_EQ(settings["odometry_scale_percent"].as<std::string>(), "0.25");
   EXPECT_EQ(settings["refresh_border_px"].as<std::string>(), border);
   EXPECT_NE(settings["lower_solver"].as<std::string>().find("lbfgs"), std::string::npos);
   EXPECT_EQ(settings["intensity_highpass"].as<std::string>(), "off");  // drifting odometry: no high-pass
@@ -400,6 +399,19 @@ TEST_F(CalibrateOnSimulation, CliSettingFillsTheOptionsNotGivenAndRefusesARigWit
             "--alternations 26 --stage-alternations 20 --refresh-border " + border);
   EXPECT_EQ(alt_settings["alternations_max"].as<std::string>(), "26");
   EXPECT_EQ(alt_settings["intensity_highpass"].as<std::string>(), "0.0234 of the image width");
+  // With the odometry's scale given, the drifting setting does not estimate the drive's scale again.
+  const fs::path scaled_output = root_ / "setting_scaled.yaml";
+  ASSERT_EQ(RunCli("calibrate " + DatasetPath().string() + " --output " + scaled_output.string() +
+                       " --setting push-broom-drifting --scheme joint --odometry-scale 0.25 --scenes 4 --stages 1 "
+                       "--no-uncertainty --no-basin-check --time-budget 0.3",
+                   &text),
+            0)
+      << text;
+  const YAML::Node scaled_settings = YAML::LoadFile(scaled_output.string())["settings"];
+  EXPECT_NE(scaled_settings["setting"].as<std::string>().find("--motion-correction turn --refresh-border"),
+            std::string::npos)
+      << scaled_settings["setting"].as<std::string>();
+  EXPECT_EQ(scaled_settings["odometry_scale_percent"].as<std::string>(), "0.25");
 
   // A rig with no 2D lidar: exit 2, the reason named, no file.
   const fs::path no_push_broom = root_ / "no_push_broom";

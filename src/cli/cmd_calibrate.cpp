@@ -67,7 +67,8 @@ struct CalibrateArguments {
 // did not give, and lists them in args->setting_words; --refresh-border
 // follows the images and is set once the dataset is open.
 void ApplySetting(CalibrateArguments* args) {
-  for (const SettingOption& option : SettingOptions(args->setting, args->scheme == "alt")) {
+  for (const SettingOption& option :
+       SettingOptions(args->setting, args->scheme == "alt", GivenOnCommandLine(args->command, "--odometry-scale"))) {
     if (GivenOnCommandLine(args->command, option.name)) continue;  // the user's own value wins
     if (option.name == "--swathe-length") args->cost.swathe_length_m = option.number;
     if (option.name == "--range-split") args->cost.range_split_m = option.number;

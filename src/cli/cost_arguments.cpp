@@ -87,7 +87,7 @@ void AddCostOptions(CLI::App* command, CostArguments* args) {
                       "A known scale error of the trajectory, in percent: its distances are taken as (1 + P / 100) "
                       "x what it says (e.g. 0.3 when visual odometry reports them 0.3 % short, from GNSS or a "
                       "measured drive). The images cannot tell a scale error from a shift of the lidar along the "
-                      "travel: each 0.1 % moves a push-broom lidar's estimate about 1.3 cm on the simulated drive "
+                      "travel: each 0.1 % moves a push-broom lidar's estimate 1.3-1.7 cm on the simulated drive "
                       "(BENCHMARK.md, \"Thirteenth session\")")
       ->check(CLI::Range(-19.9, 19.9))
       ->capture_default_str();
@@ -207,7 +207,9 @@ void AddMotionCorrectionOptions(CLI::App* command, MotionCorrectionArguments* ar
                       "from drifting odometry: the terms to estimate, a comma list of turn (rates across the "
                       "travel: heading and pitch), scale (of the distance travelled) and roll (rate about the "
                       "travel), each frame's from its own cost, and drive-scale (one scale for the whole drive, "
-                      "from all frames' costs together: the odometry's scale bias); at the current estimate, before "
+                      "from all frames' costs together; weakly determined: the images hardly tell a scale error from the "
+                      "lidar's position along the travel, so give a known scale with --odometry-scale instead); at "
+                      "the current estimate, before "
                       "each stage from --motion-correction-from-stage on (every scheme; alt: before the first "
                       "alternation of each stage, at the upper estimates, shared by the lower levels and by every "
                       "lidar's swathes of a frame: the drift is the trajectory's). Off when not given")

@@ -31,7 +31,7 @@ const std::vector<std::string>& SettingNames() {
   return names;
 }
 
-std::vector<SettingOption> SettingOptions(const std::string& setting, bool with_alt) {
+std::vector<SettingOption> SettingOptions(const std::string& setting, bool with_alt, bool odometry_scale_given) {
   const std::vector<std::string>& names = SettingNames();
   if (std::find(names.begin(), names.end(), setting) == names.end()) return {};
   std::vector<SettingOption> options{Number("--swathe-length", kSwatheLengthM),
@@ -39,9 +39,10 @@ std::vector<SettingOption> SettingOptions(const std::string& setting, bool with_
                                      Number("--thin", kThinPointsPerCell),
                                      {"--lower-solver", "lbfgs"}};
   if (setting == "push-broom-drifting") {
-    // The drift misplaces the texture: no high-pass; each frame's swathe re-posed instead, with the
-    // odometry's scale bias shared by the whole drive.
-    options.push_back({"--motion-correction", "turn,drive-scale"});
+    // The drift misplaces the texture: no high-pass; each frame's swathe re-posed instead, with one
+    // scale for the whole drive unless it is given (the images hardly measure it: BENCHMARK.md,
+    // "Thirteenth session").
+    options.push_back({"--motion-correction", odometry_scale_given ? "turn" : "turn,drive-scale"});
   } else {
     options.push_back(Number("--image-highpass", kHighpassFraction));
   }
@@ -89,10 +90,12 @@ std::string SettingHelp() {
       "A named bundle of options measured together; any of them given on the command line keeps its own value. "
       "push-broom (a moving 2D lidar, good odometry: RTK-INS, lidar odometry): {}, --refresh-border {:g} % of the "
       "widest image ({:g} px at 1280), and for the alt scheme {}. push-broom-drifting (visual odometry, ~0.01 "
-      "deg/m): the same with {} instead of {}. Recorded in the result's settings (README, \"What to expect\")",
+      "deg/m): the same with {} instead of {} ({} when --odometry-scale gives the drive's scale). Recorded in "
+      "the result's settings (README, \"What to expect\")",
       typed(good), 100.0 * kRefreshBorderFraction, std::round(kRefreshBorderFraction * 1280.0),
       typed(only_in(SettingOptions("push-broom", true), good)), typed(only_in(drifting, good)),
-      typed(only_in(good, drifting)));
+      typed(only_in(good, drifting)),
+      typed(only_in(SettingOptions("push-broom-drifting", false, true), good)));
 }
 
 }  // namespace scenecal::cli

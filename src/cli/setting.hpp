@@ -30,9 +30,12 @@ struct SettingOption {
 };
 
 // The options `setting` stands for, in the order they are applied; with_alt
-// adds the alternation counts (the command runs the alt scheme). The border
-// follows the images: SettingRefreshBorderPx.
-std::vector<SettingOption> SettingOptions(const std::string& setting, bool with_alt);
+// adds the alternation counts (the command runs the alt scheme); with
+// odometry_scale_given (--odometry-scale) the drifting setting does not
+// estimate the drive's scale again. The border follows the images:
+// SettingRefreshBorderPx.
+std::vector<SettingOption> SettingOptions(const std::string& setting, bool with_alt,
+                                          bool odometry_scale_given = false);
 
 // The setting's --refresh-border for this rig: 3.75 % of its widest image
 // (48 px at 1280).
