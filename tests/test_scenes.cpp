@@ -230,7 +230,8 @@ TEST(Scenes, OdometryScaleStretchesTheScanPoses) {
     for (int i = 0; i <= 2000; ++i) {  // 20 s at 100 Hz, turning and climbing
       const double t = 0.01 * i;
       Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-      pose.translation() = stretch * Eigen::Vector3d(30.0 * std::sin(0.1 * t), 30.0 * (1.0 - std::cos(0.1 * t)), 0.2 * t);
+      pose.translation() =
+          stretch * Eigen::Vector3d(30.0 * std::sin(0.1 * t), 30.0 * (1.0 - std::cos(0.1 * t)), 0.2 * t);
       pose.linear() = RotationFromRollPitchYaw(0.01 * std::sin(t), 0.005 * t, 0.1 * t);
       times.push_back(static_cast<TimeUs>(i) * kSecond / 100);
       poses.push_back(pose);

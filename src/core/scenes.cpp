@@ -213,7 +213,8 @@ SceneSelection SelectScenes(const Rig& rig, const Trajectory& trajectory,
             continue;
           }
           Eigen::Isometry3d T_basek_basej = T_world_basek.inverse() * *T_world_basej;
-          T_basek_basej.translation() *= 1.0 + options.odometry_scale;  // the relative position scales with the distances
+          // A relative position scales with the distances.
+          T_basek_basej.translation() *= 1.0 + options.odometry_scale;
           scene.scans.push_back({t_j, T_basek_basej});
         }
         if (scene.scans.empty()) {
