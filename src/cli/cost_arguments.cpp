@@ -209,9 +209,10 @@ void AddMotionCorrectionOptions(CLI::App* command, MotionCorrectionArguments* ar
                       "travel), each frame's from its own cost, and drive-scale (one scale for the whole drive, "
                       "from all frames' costs together; weakly determined: the images hardly tell a scale error "
                       "from the lidar's position along the travel, so give a known scale with --odometry-scale "
-                      "instead); at the current estimate, before each stage from --motion-correction-from-stage on (every scheme; alt: before the first "
-                      "alternation of each stage, at the upper estimates, shared by the lower levels and by every "
-                      "lidar's swathes of a frame: the drift is the trajectory's). Off when not given")
+                      "instead); at the current estimate, before each stage from --motion-correction-from-stage "
+                      "on (every scheme; alt: before the first alternation of each stage, at the upper estimates, "
+                      "shared by the lower levels and by every lidar's swathes of a frame: the drift is the "
+                      "trajectory's). Off when not given")
       ->delimiter(',')
       ->check(CLI::IsMember({"turn", "scale", "roll", "drive-scale"}));
   command->add_option("--motion-correction-from-stage", args->first_stage,
