@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "core/alternating.hpp"
+#include "core/calibrate_alternating.hpp"
 
 namespace scenecal {
 namespace {
@@ -91,6 +92,47 @@ TEST(Alternating, InconsistentPairsMeetInBetweenUnderTheKnownTransform) {
   // The known transform holds within a few of its sigmas (default 0.5 mm).
   const Eigen::Isometry3d implied_by_right = kT_base_right * result.T_camera_lidar_upper[1];
   EXPECT_LT(TranslationError(implied_by_right, result.T_base_lidar[0]), 0.003);
+}
+
+// When the levels end apart, the result's warning says what to change, and the
+// number of alternations it names does close the gap (pairs 2 cm inconsistent,
+// as the fourteenth session's wrong inter-camera transform made them).
+TEST(Alternating, LevelsApartWarningNamesEnoughAlternations) {
+  Eigen::Isometry3d implied_right = kT_base_lidar_true;
+  implied_right.translation().z() += 0.02;
+  const AlternatingProblem problem = StereoProblem(Perturbed());
+  ThreadLowerLevelBackend backend({Bowl(kT_base_lidar_true, 1.0, kWidth),
+                                   Bowl(kT_base_right.inverse() * implied_right, 1.0, kWidth)});
+  AlternatingOptions options;
+  options.max_alternations = 12;
+  options.stage_alternations = 6;  // the stages on the first ones: only more alternations are missing
+  const AlternatingResult short_run = SolveAlternating(problem, options, backend);
+  ASSERT_TRUE(short_run.success) << short_run.termination;
+  ASSERT_EQ(short_run.alternations, 12) << short_run.termination;
+  const std::string warning = LevelsApartWarning(options, short_run.history.back(), false);
+  ASSERT_FALSE(warning.empty()) << "levels " << short_run.history.back().max_disagreement_translation_m << " m apart";
+  const std::string flag = "--alternations ";
+  const std::size_t at = warning.find(flag);
+  ASSERT_NE(at, std::string::npos) << warning;
+  const int suggested = std::stoi(warning.substr(at + flag.size()));
+  EXPECT_GT(suggested, options.max_alternations) << warning;
+  EXPECT_EQ(warning.find("--stage-alternations"), std::string::npos) << warning;
+
+  AlternatingOptions longer = options;
+  longer.max_alternations = suggested;
+  const AlternatingResult long_run = SolveAlternating(problem, longer, backend);
+  ASSERT_TRUE(long_run.success) << long_run.termination;
+  EXPECT_EQ(LevelsApartWarning(longer, long_run.history.back(), false), "")
+      << long_run.history.back().max_disagreement_translation_m << " m / "
+      << long_run.history.back().max_disagreement_rotation_rad << " rad apart after " << long_run.alternations;
+  EXPECT_NE(long_run.termination.find("converged"), std::string::npos) << long_run.termination;
+
+  // Stages over every alternation: keep them on the first ones; a time budget: raise it.
+  AlternatingOptions all_stages = options;
+  all_stages.stage_alternations = 0;
+  EXPECT_NE(LevelsApartWarning(all_stages, short_run.history.back(), false).find("--stage-alternations 12"),
+            std::string::npos);
+  EXPECT_NE(LevelsApartWarning(options, short_run.history.back(), true).find("--time-budget"), std::string::npos);
 }
 
 // The penalty's sigmas are the lidar's: a turn about the lidar's own origin
