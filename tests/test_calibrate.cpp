@@ -396,8 +396,8 @@ TEST_F(CalibrateOnSimulation, CliSettingFillsTheOptionsNotGivenAndRefusesARigWit
   const YAML::Node alt_settings = YAML::LoadFile(alt_output.string())["settings"];
   EXPECT_EQ(alt_settings["setting"].as<std::string>(),
             "push-broom: --swathe-length 30 --range-split 6 --thin 2 --lower-solver lbfgs --image-highpass 0.0234 "
-            "--alternations 26 --stage-alternations 20 --refresh-border " + border);
-  EXPECT_EQ(alt_settings["alternations_max"].as<std::string>(), "26");
+            "--alternations 40 --stage-alternations 20 --refresh-border " + border);
+  EXPECT_EQ(alt_settings["alternations_max"].as<std::string>(), "40");
   EXPECT_EQ(alt_settings["intensity_highpass"].as<std::string>(), "0.0234 of the image width");
   // With the odometry's scale given, the drifting setting does not estimate the drive's scale again.
   const fs::path scaled_output = root_ / "setting_scaled.yaml";

@@ -472,8 +472,9 @@ CommandRunner AddCalibrateCommand(CLI::App& app) {
   command->add_option("--stage-alternations", alt.stage_alternations,
                       "alt: spread the coarse-to-fine stages (--stages) over the first N alternations; the "
                       "rest stay in the sharp stage and only tighten the penalty until the two levels agree "
-                      "(0: over all). With --alternations 26 --stage-alternations 20 on the push-broom setting "
-                      "the levels end within 0.02 mm / 0.004 deg without moving the answer (BENCHMARK.md)")
+                      "(0: over all). With --alternations 40 --stage-alternations 20 on the push-broom setting "
+                      "the levels settle within 0.001 deg after 26-32 alternations without moving the answer "
+                      "(BENCHMARK.md)")
       ->check(CLI::Range(0, 10000))
       ->capture_default_str();
   command->add_option("--shrink", alt.shrink, "alt: covariance factor w of the penalty, P(i+1) = w P(i), in (0, 1)")

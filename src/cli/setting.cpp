@@ -14,7 +14,9 @@ constexpr double kRangeSplitM = 6.0;
 constexpr double kThinPointsPerCell = 2.0;
 constexpr double kRefreshBorderFraction = 0.0375;  // of the image width: 48 px at 1280
 constexpr double kHighpassFraction = 0.0234;       // of the image width: 30 px at 1280
-constexpr double kAlternations = 26.0;
+// At most; alt stops by itself once its levels have settled (26 left them 0.018 deg apart with a known
+// inter-camera transform 0.05 deg off: BENCHMARK.md, "Fourteenth session").
+constexpr double kAlternations = 40.0;
 constexpr double kStageAlternations = 20.0;
 
 SettingOption Number(const char* name, double value) { return {name, fmt::format("{:g}", value), value}; }
