@@ -52,6 +52,13 @@ Eigen::Isometry3d Perturbed() {
 
 const Vector6d kWidth = (Vector6d() << 0.05, 0.05, 0.05, 0.02, 0.02, 0.02).finished();
 
+// Bowls whose minima disagree: the right pair's implies a lidar 2 cm further along z than the left's.
+std::vector<PairObjective> InconsistentStereoObjectives() {
+  Eigen::Isometry3d implied_right = kT_base_lidar_true;
+  implied_right.translation().z() += 0.02;
+  return {Bowl(kT_base_lidar_true, 1.0, kWidth), Bowl(kT_base_right.inverse() * implied_right, 1.0, kWidth)};
+}
+
 TEST(Alternating, ConsistentPairsConvergeToTheTruthAndTheLevelsAgree) {
   const AlternatingProblem problem = StereoProblem(Perturbed());
   ThreadLowerLevelBackend backend({Bowl(kT_base_lidar_true, 1.0, kWidth),
@@ -76,12 +83,8 @@ TEST(Alternating, ConsistentPairsConvergeToTheTruthAndTheLevelsAgree) {
 }
 
 TEST(Alternating, InconsistentPairsMeetInBetweenUnderTheKnownTransform) {
-  // The right pair's minimum implies a lidar 2 cm further along z than the left's.
-  Eigen::Isometry3d implied_right = kT_base_lidar_true;
-  implied_right.translation().z() += 0.02;
   const AlternatingProblem problem = StereoProblem(Perturbed());
-  ThreadLowerLevelBackend backend({Bowl(kT_base_lidar_true, 1.0, kWidth),
-                                   Bowl(kT_base_right.inverse() * implied_right, 1.0, kWidth)});
+  ThreadLowerLevelBackend backend(InconsistentStereoObjectives());
   AlternatingOptions options;
   options.max_alternations = 30;
   const AlternatingResult result = SolveAlternating(problem, options, backend);
@@ -98,11 +101,8 @@ TEST(Alternating, InconsistentPairsMeetInBetweenUnderTheKnownTransform) {
 // number of alternations it names does close the gap (pairs 2 cm inconsistent,
 // as the fourteenth session's wrong inter-camera transform made them).
 TEST(Alternating, LevelsApartWarningNamesEnoughAlternations) {
-  Eigen::Isometry3d implied_right = kT_base_lidar_true;
-  implied_right.translation().z() += 0.02;
   const AlternatingProblem problem = StereoProblem(Perturbed());
-  ThreadLowerLevelBackend backend({Bowl(kT_base_lidar_true, 1.0, kWidth),
-                                   Bowl(kT_base_right.inverse() * implied_right, 1.0, kWidth)});
+  ThreadLowerLevelBackend backend(InconsistentStereoObjectives());
   AlternatingOptions options;
   options.max_alternations = 12;
   options.stage_alternations = 6;  // the stages on the first ones: only more alternations are missing
