@@ -353,15 +353,20 @@ TEST_F(CalibrateOnSimulation, CliSettingFillsTheOptionsNotGivenAndRefusesARigWit
   const io::Dataset dataset = io::OpenDataset(DatasetPath());
   int widest = 0;
   for (const CameraInfo& camera : dataset.rig.cameras) widest = std::max(widest, camera.model.width);
-  const fs::path output = root_ / "setting.yaml";
+  // calibrate on the dataset with these options into root_ / name: exit 0, the result file.
   std::string text;
-  ASSERT_EQ(RunCli("calibrate " + DatasetPath().string() + " --output " + output.string() +
-                       " --setting push-broom-drifting --scheme joint --swathe-length 12 --scenes 4 "
-                       "--lbfgs-iterations 3 --stages 1,0.3 --no-uncertainty --no-basin-check",
-                   &text),
-            0)
-      << text;
-  const YAML::Node settings = YAML::LoadFile(output.string())["settings"];
+  const auto calibrate = [&](const std::string& name, const std::string& options, YAML::Node* result) {
+    const fs::path output = root_ / name;
+    ASSERT_EQ(RunCli("calibrate " + DatasetPath().string() + " --output " + output.string() + " " + options, &text), 0)
+        << text;
+    *result = YAML::LoadFile(output.string());
+  };
+  YAML::Node result;
+  ASSERT_NO_FATAL_FAILURE(calibrate("setting.yaml",
+                                    "--setting push-broom-drifting --scheme joint --swathe-length 12 --scenes 4 "
+                                    "--lbfgs-iterations 3 --stages 1,0.3 --no-uncertainty --no-basin-check",
+                                    &result));
+  const YAML::Node settings = result["settings"];
   const std::string setting = settings["setting"].as<std::string>();
   const std::string border = std::to_string(static_cast<int>(std::lround(0.0375 * widest)));
   EXPECT_EQ(setting, "push-broom-drifting: --range-split 6 --thin 2 --lower-solver lbfgs --motion-correction "
@@ -376,7 +381,7 @@ TEST_F(CalibrateOnSimulation, CliSettingFillsTheOptionsNotGivenAndRefusesARigWit
   // Corrected before the second stage: each frame's own turn, one scale for the whole drive.
   std::set<double> drive_scales;
   int turned = 0;
-  for (const YAML::Node& frame : YAML::LoadFile(output.string())["motion_correction"]) {
+  for (const YAML::Node& frame : result["motion_correction"]) {
     drive_scales.insert(frame["scale_percent"].as<double>());
     turned += frame["turn_a_deg_per_m"].as<double>() != 0.0 ? 1 : 0;
   }
@@ -385,29 +390,25 @@ TEST_F(CalibrateOnSimulation, CliSettingFillsTheOptionsNotGivenAndRefusesARigWit
   EXPECT_EQ(settings["thinning"].as<std::string>().rfind("2 points per", 0), 0u);
   EXPECT_EQ(settings["range_split_m"].as<std::string>(), "6");
   EXPECT_NE(text.find("--setting push-broom-drifting: --range-split 6"), std::string::npos) << text;
-  // With alt, the stages spread over 20 of 26 alternations (cut short here by the time budget).
-  const fs::path alt_output = root_ / "setting_alt.yaml";
-  ASSERT_EQ(RunCli("calibrate " + DatasetPath().string() + " --output " + alt_output.string() +
-                       " --setting push-broom --scenes 4 --lbfgs-iterations 2 --stages 1 --no-uncertainty "
-                       "--no-basin-check --time-budget 0.3",
-                   &text),
-            0)
-      << text;
-  const YAML::Node alt_settings = YAML::LoadFile(alt_output.string())["settings"];
+  // With alt, the stages spread over 20 of at most 40 alternations (cut short here by the time budget).
+  YAML::Node alt_result;
+  ASSERT_NO_FATAL_FAILURE(calibrate("setting_alt.yaml",
+                                    "--setting push-broom --scenes 4 --lbfgs-iterations 2 --stages 1 "
+                                    "--no-uncertainty --no-basin-check --time-budget 0.3",
+                                    &alt_result));
+  const YAML::Node alt_settings = alt_result["settings"];
   EXPECT_EQ(alt_settings["setting"].as<std::string>(),
             "push-broom: --swathe-length 30 --range-split 6 --thin 2 --lower-solver lbfgs --image-highpass 0.0234 "
             "--alternations 40 --stage-alternations 20 --refresh-border " + border);
   EXPECT_EQ(alt_settings["alternations_max"].as<std::string>(), "40");
   EXPECT_EQ(alt_settings["intensity_highpass"].as<std::string>(), "0.0234 of the image width");
   // With the odometry's scale given, the drifting setting does not estimate the drive's scale again.
-  const fs::path scaled_output = root_ / "setting_scaled.yaml";
-  ASSERT_EQ(RunCli("calibrate " + DatasetPath().string() + " --output " + scaled_output.string() +
-                       " --setting push-broom-drifting --scheme joint --odometry-scale 0.25 --scenes 4 --stages 1 "
-                       "--no-uncertainty --no-basin-check --time-budget 0.3",
-                   &text),
-            0)
-      << text;
-  const YAML::Node scaled_settings = YAML::LoadFile(scaled_output.string())["settings"];
+  YAML::Node scaled_result;
+  ASSERT_NO_FATAL_FAILURE(calibrate("setting_scaled.yaml",
+                                    "--setting push-broom-drifting --scheme joint --odometry-scale 0.25 --scenes 4 "
+                                    "--stages 1 --no-uncertainty --no-basin-check --time-budget 0.3",
+                                    &scaled_result));
+  const YAML::Node scaled_settings = scaled_result["settings"];
   EXPECT_NE(scaled_settings["setting"].as<std::string>().find("--motion-correction turn --refresh-border"),
             std::string::npos)
       << scaled_settings["setting"].as<std::string>();
