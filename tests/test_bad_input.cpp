@@ -168,6 +168,40 @@ std::vector<BadCase> DatasetCases() {
       {"ground truth of the wrong format",
        [](const fs::path& dir) { return Replace(dir / "ground_truth.yaml", "ground-truth/1", "ground-truth/7"); },
        "ground_truth.yaml", "format"},
+      // FORMAT.md's sensor-folder rule: every sensor of rig.yaml has a folder with a data file.
+      {"declared camera without a folder", [](const fs::path& dir) { return fs::remove_all(dir / "cameras" / "right") > 0; },
+       "right", "cameras/right"},
+      {"declared camera with an empty folder",
+       [](const fs::path& dir) {
+         return fs::remove(dir / "cameras" / "right" / "1200000.png") && fs::exists(dir / "cameras" / "right");
+       },
+       "right", "cameras/right"},
+      {"declared lidar without a folder", [](const fs::path& dir) { return fs::remove_all(dir / "lidars" / "rear") > 0; },
+       "rear", "lidars/rear"},
+      {"no lidars folder at all", [](const fs::path& dir) { return fs::remove_all(dir / "lidars") > 0; }, "lidars",
+       "lidars/rear"},
+      {"sensor folder that is a symlink loop",
+       [](const fs::path& dir) {
+         fs::remove_all(dir / "cameras" / "right");
+         fs::create_directory_symlink("right", dir / "cameras" / "right");
+         return fs::is_symlink(dir / "cameras" / "right");
+       },
+       "right", "cameras"},
+      {"data file that is a symlink loop",
+       [](const fs::path& dir) {
+         fs::create_symlink("1500000.bin", dir / "lidars" / "rear" / "1500000.bin");
+         return fs::is_symlink(dir / "lidars" / "rear" / "1500000.bin");
+       },
+       "1500000.bin", "lidars"},
+      {"rig.yaml that is a symlink loop",
+       [](const fs::path& dir) {
+         fs::remove(dir / "rig.yaml");
+         fs::create_symlink("rig.yaml", dir / "rig.yaml");
+         return fs::is_symlink(dir / "rig.yaml");
+       },
+       "rig.yaml", "file"},
+      {"image area beyond the cap", rig("    width: 32\n    height: 24\n", "    width: 100000\n    height: 100000\n"),
+       "rig.yaml", "cameras.left.width"},
   };
 }
 

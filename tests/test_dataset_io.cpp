@@ -334,13 +334,18 @@ TEST(DatasetIo, DatasetSkeletonAndOpen) {
   io::WriteImage(root / "cameras" / "cam_front" / "200.png", cv::Mat(960, 1280, CV_8UC1, cv::Scalar(3)));
   io::WriteImage(root / "cameras" / "cam_front" / "100.png", cv::Mat(960, 1280, CV_8UC1, cv::Scalar(3)));
   io::WriteScan(root / "lidars" / "top" / "250.bin", TestPoints(4, 0));
+  // The skeleton alone is not a dataset: every sensor needs a data file (FORMAT.md).
+  EXPECT_THROW(io::OpenDataset(root), io::InputError);
+  io::WriteImage(root / "cameras" / "cam-side" / "300.png", cv::Mat(480, 640, CV_8UC1, cv::Scalar(3)));
+  io::WriteImage(root / "cameras" / "Fish3" / "300.png", cv::Mat(800, 800, CV_8UC1, cv::Scalar(3)));
+  io::WriteScan(root / "lidars" / "rear" / "150.bin", TestPoints(4, 0));
   const io::Dataset dataset = io::OpenDataset(root);
   ASSERT_EQ(dataset.images.at("cam_front").size(), 2u);
   EXPECT_EQ(dataset.images.at("cam_front")[0].t_us, 100);  // sorted by time
   EXPECT_EQ(dataset.images.at("cam_front")[1].t_us, 200);
-  EXPECT_TRUE(dataset.images.at("cam-side").empty());
+  EXPECT_EQ(dataset.images.at("cam-side").size(), 1u);
   EXPECT_EQ(dataset.scans.at("top").size(), 1u);
-  EXPECT_TRUE(dataset.scans.at("rear").empty());
+  EXPECT_EQ(dataset.scans.at("rear").size(), 1u);
   ASSERT_TRUE(dataset.ground_truth.has_value());
   EXPECT_EQ(dataset.ground_truth->T_base_lidar.count("top"), 1u);
 }

@@ -75,6 +75,14 @@ CameraInfo ParseCamera(const YamlReader& yaml, const std::string& name, const YA
     }
     (std::string(key) == "width" ? model.width : model.height) = static_cast<int>(pixels);
   }
+  // Each image is decoded whole and the cost keeps it as float: cap the area
+  // (a 16384 x 16384 image, 1 GiB as float) so that an absurd size is refused
+  // here rather than by the out-of-memory killer.
+  constexpr long long kMaxImagePixels = 1LL << 28;
+  if (static_cast<long long>(model.width) * model.height > kMaxImagePixels) {
+    yaml.Fail(node["width"], field + ".width", fmt::format("{} x {} pixels", model.width, model.height),
+              fmt::format("at most {} pixels in all", kMaxImagePixels));
+  }
   const YAML::Node model_node = yaml.Required(node, field, "model");
   if (!ParseCameraModelKind(yaml.String(model_node, field + ".model"), &model.kind)) {
     yaml.Fail(model_node, field + ".model", "found " + detail::Describe(model_node), "pinhole, radtan or equidistant");
@@ -282,50 +290,75 @@ bool IsImageExtension(const std::string& extension) {
 
 // ---- listing -----------------------------------------------------------------
 
+// The data files of one sensor's folder, sorted by time.
+std::vector<SensorFile> ListSensorFiles(const fs::path& directory, bool images, const std::string& expected_files) {
+  std::vector<SensorFile> files;
+  for (const fs::directory_entry& file : fs::directory_iterator(directory)) {
+    const fs::path& path = file.path();
+    const std::string extension = path.extension().string();
+    const bool good_extension = images ? IsImageExtension(extension) : extension == ".bin";
+    if (!file.is_regular_file() || !good_extension) {
+      Fail(path.string(), "file name", "'" + path.filename().string() + "' is not a data file of this folder",
+           expected_files);
+    }
+    const std::optional<TimeUs> t_us = ParseTimestamp(path.stem().string());
+    if (!t_us) Fail(path.string(), "file name", "'" + path.stem().string() + "' is not a timestamp", expected_files);
+    files.push_back({*t_us, path});
+  }
+  std::sort(files.begin(), files.end(), [](const SensorFile& a, const SensorFile& b) {
+    return a.t_us != b.t_us ? a.t_us < b.t_us : a.path < b.path;
+  });
+  for (std::size_t i = 1; i < files.size(); ++i) {
+    if (files[i].t_us == files[i - 1].t_us) {
+      Fail(files[i].path.string(), "file name",
+           fmt::format("timestamp {} also used by {}", files[i].t_us, files[i - 1].path.filename().string()),
+           "one file per timestamp");
+    }
+  }
+  return files;
+}
+
+// FORMAT.md's sensor-folder rule: every sensor of rig.yaml has its folder
+// <folder>/<sensor>/ holding at least one data file, and nothing else is there.
 std::map<std::string, std::vector<SensorFile>> ListSensorFolders(const fs::path& root, const std::string& folder,
                                                                  const std::set<std::string>& sensors,
                                                                  bool images, const std::string& sensor_word) {
   std::map<std::string, std::vector<SensorFile>> listing;
-  for (const std::string& name : sensors) listing[name] = {};
   const fs::path directory = root / folder;
-  std::error_code error;
-  if (!fs::exists(directory, error)) return listing;  // no data for any of these sensors; allowed at open time
-  if (!fs::is_directory(directory, error)) Fail(directory.string(), "folder", "not a directory", "a directory");
   const std::string expected_files = images ? "files named <t_us>.png, <t_us>.jpg or <t_us>.jpeg (int64 microseconds)"
                                             : "files named <t_us>.bin (int64 microseconds)";
-  for (const fs::directory_entry& entry : fs::directory_iterator(directory)) {
-    const std::string name = entry.path().filename().string();
-    if (!entry.is_directory()) {
-      Fail(entry.path().string(), folder, "a stray file", "only one folder per " + sensor_word + " of rig.yaml");
+  const std::string expected_folder =
+      fmt::format("a folder {}/<{}>/ with at least one data file for every {} of rig.yaml", folder, sensor_word,
+                  sensor_word);
+  // Symlink loops, permissions and the like surface as filesystem errors
+  // (ELOOP, EACCES): they are the dataset's fault, so they name the path.
+  try {
+    std::error_code error;
+    if (!fs::exists(directory, error)) {
+      Fail(directory.string(), folder + "/" + (sensors.empty() ? std::string() : *sensors.begin()), "missing",
+           expected_folder);
     }
-    if (sensors.count(name) == 0) {
-      Fail(entry.path().string(), folder + "/" + name, "a folder for '" + name + "', which is not a " + sensor_word +
-               " of rig.yaml", "folders named after the " + sensor_word + "s in rig.yaml");
+    if (!fs::is_directory(directory)) Fail(directory.string(), "folder", "not a directory", "a directory");
+    for (const fs::directory_entry& entry : fs::directory_iterator(directory)) {
+      const std::string name = entry.path().filename().string();
+      if (!entry.is_directory()) {
+        Fail(entry.path().string(), folder, "a stray file", "only one folder per " + sensor_word + " of rig.yaml");
+      }
+      if (sensors.count(name) == 0) {
+        Fail(entry.path().string(), folder + "/" + name, "a folder for '" + name + "', which is not a " +
+                 sensor_word + " of rig.yaml", "folders named after the " + sensor_word + "s in rig.yaml");
+      }
+      listing[name] = ListSensorFiles(entry.path(), images, expected_files);
     }
-    std::vector<SensorFile>& files = listing[name];
-    for (const fs::directory_entry& file : fs::directory_iterator(entry.path())) {
-      const fs::path& path = file.path();
-      const std::string extension = path.extension().string();
-      const bool good_extension = images ? IsImageExtension(extension) : extension == ".bin";
-      if (!file.is_regular_file() || !good_extension) {
-        Fail(path.string(), "file name", "'" + path.filename().string() + "' is not a data file of this folder",
-             expected_files);
-      }
-      const std::optional<TimeUs> t_us = ParseTimestamp(path.stem().string());
-      if (!t_us) {
-        Fail(path.string(), "file name", "'" + path.stem().string() + "' is not a timestamp", expected_files);
-      }
-      files.push_back({*t_us, path});
-    }
-    std::sort(files.begin(), files.end(), [](const SensorFile& a, const SensorFile& b) {
-      return a.t_us != b.t_us ? a.t_us < b.t_us : a.path < b.path;
-    });
-    for (std::size_t i = 1; i < files.size(); ++i) {
-      if (files[i].t_us == files[i - 1].t_us) {
-        Fail(files[i].path.string(), "file name",
-             fmt::format("timestamp {} also used by {}", files[i].t_us, files[i - 1].path.filename().string()),
-             "one file per timestamp");
-      }
+  } catch (const fs::filesystem_error& e) {
+    const fs::path where = e.path1().empty() ? directory : e.path1();
+    Fail(where.string(), folder, "cannot be listed (" + e.code().message() + ")", "a readable folder of data files");
+  }
+  for (const std::string& name : sensors) {
+    const auto found = listing.find(name);
+    if (found == listing.end() || found->second.empty()) {
+      Fail((directory / name).string(), folder + "/" + name,
+           found == listing.end() ? "missing" : "empty (no data file)", expected_folder);
     }
   }
   return listing;

@@ -20,7 +20,10 @@ void Fail(const std::string& file, const std::string& where, const std::string& 
 std::string ReadTextFile(const fs::path& path, std::size_t max_bytes) {
   std::error_code error;
   const auto status = fs::status(path, error);
-  if (error || !fs::exists(status)) Fail(path.string(), "file", "missing", "the file to exist");
+  if (error && error != std::errc::no_such_file_or_directory) {  // e.g. a symlink loop (ELOOP)
+    Fail(path.string(), "file", "cannot be read (" + error.message() + ")", "a readable file");
+  }
+  if (!fs::exists(status)) Fail(path.string(), "file", "missing", "the file to exist");
   if (!fs::is_regular_file(status)) Fail(path.string(), "file", "not a regular file", "a regular file");
   const auto size = fs::file_size(path, error);
   if (error) Fail(path.string(), "file", "cannot read its size (" + error.message() + ")", "a readable file");
