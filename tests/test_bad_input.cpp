@@ -3,6 +3,8 @@
 // one message on stderr, no crash), and never leaves output behind.
 #include <functional>
 
+#include <unistd.h>
+
 #include <gtest/gtest.h>
 
 #include "io/dataset.hpp"
@@ -401,6 +403,57 @@ TEST(BadInput, ImportRefusesANonEmptyOutputUnlessForced) {
   EXPECT_EQ(forced.exit_code, 0) << forced.stderr_text;
   EXPECT_FALSE(fs::exists(output / "precious.txt"));
   EXPECT_NO_THROW(io::OpenDataset(output));
+}
+
+// An output that could not be written is refused before any work (exit 2,
+// naming the path), never after a long run or as a crash.
+TEST(BadInput, UnwritableOutputPathsAreRefusedBeforeAnyWork) {
+  ASSERT_TRUE(fs::exists(SCENECAL_CLI_PATH)) << "build the scenecal target first";
+  const TempDir temp;
+  const fs::path dataset = temp.path() / "dataset";
+  WriteValidDataset(dataset);
+  const fs::path source = temp.path() / "source";
+  WriteOpenCalibSource(source);
+  WriteFile(temp.path() / "a_file", "not a folder");
+  const std::string missing_folder = (temp.path() / "missing" / "result.yaml").string();
+  const std::string under_a_file = (temp.path() / "a_file" / "out").string();
+  const std::string dataset_arg = "'" + dataset.string() + "'";
+  struct Case {
+    std::string arguments, named;
+  };
+  const std::vector<Case> cases = {
+      {"calibrate " + dataset_arg + " --output '" + missing_folder + "'", missing_folder},
+      {"calibrate " + dataset_arg + " --output '" + under_a_file + "'", under_a_file},
+      {"calibrate " + dataset_arg + " --output '" + temp.path().string() + "'", temp.path().string()},
+      {"calibrate " + dataset_arg + " --output '" + (temp.path() / "r.yaml").string() + "' --report '" + under_a_file +
+           "'",
+       under_a_file},
+      {"profile " + dataset_arg + " --output '" + missing_folder + "'", missing_folder},
+      {"simulate --preset robotcar --output '" + under_a_file + "'", under_a_file},
+      {"experiment --preset robotcar --output '" + under_a_file + "'", under_a_file},
+      {"import opencalib '" + source.string() + "' --output '" + under_a_file + "'", under_a_file},
+  };
+  for (const Case& bad : cases) {
+    SCOPED_TRACE(bad.arguments);
+    const CliRun run = RunCli(bad.arguments, temp.path());
+    EXPECT_TRUE(run.exited);
+    EXPECT_EQ(run.exit_code, 2) << run.stderr_text;
+    EXPECT_NE(run.stderr_text.find(bad.named), std::string::npos) << run.stderr_text;
+    EXPECT_NE(run.stderr_text.find("--"), std::string::npos) << "the option is not named: " << run.stderr_text;
+  }
+  EXPECT_FALSE(fs::exists(temp.path() / "r.yaml"));
+  EXPECT_FALSE(fs::exists(temp.path() / "missing"));
+  // A read-only folder: root writes anyway, so this part needs another user.
+  if (::geteuid() != 0) {
+    const fs::path locked = temp.path() / "locked";
+    fs::create_directories(locked);
+    fs::permissions(locked, fs::perms::owner_read | fs::perms::owner_exec);
+    const std::string result = (locked / "result.yaml").string();
+    const CliRun run = RunCli("calibrate " + dataset_arg + " --output '" + result + "'", temp.path());
+    fs::permissions(locked, fs::perms::owner_all);
+    EXPECT_EQ(run.exit_code, 2) << run.stderr_text;
+    EXPECT_NE(run.stderr_text.find("not writable"), std::string::npos) << run.stderr_text;
+  }
 }
 
 TEST(BadInput, InspectSaysWhyDataCannotBeCalibrated) {

@@ -29,6 +29,7 @@
 #include "core/calibrate.hpp"
 #include "core/geometry.hpp"
 #include "io/dataset.hpp"
+#include "io/output_path.hpp"
 
 namespace scenecal::cli {
 
@@ -104,6 +105,12 @@ std::string ErrorLine(const Eigen::Isometry3d& estimate, const Eigen::Isometry3d
 
 int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
   const auto start = std::chrono::steady_clock::now();
+  // Before any work: a result that could not be written would waste the run.
+  // Only rank 0 writes, and other hosts need not have its output folder.
+  if (group.IsRoot()) {
+    io::CheckOutputFile(args.output, "--output");
+    if (!args.report_dir.empty()) io::CheckOutputFolderWritable(args.report_dir, "--report");
+  }
   CalibrationOptions options;
   // Arguments already checked by CLI11 validators; parse into the enums.
   ParseCalibrationScheme(args.scheme, &options.scheme);

@@ -32,6 +32,7 @@
 #include "core/geometry.hpp"
 #include "io/dataset.hpp"
 #include "io/error.hpp"
+#include "io/output_path.hpp"
 #include "report/html_report.hpp"
 #include "sim/simulator.hpp"
 
@@ -291,6 +292,7 @@ int RunExperiment(const ExperimentArguments& given) {
   const auto thread_limit = LimitThreads(args.threads);
 
   // The dataset: given, or simulated into OUTPUT/dataset.
+  io::CheckOutputFolderWritable(args.output, "--output");
   const std::filesystem::path output(args.output);
   std::error_code created;
   std::filesystem::create_directories(output, created);

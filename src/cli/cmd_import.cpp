@@ -11,6 +11,7 @@
 #include "cli/validators.hpp"
 #include "io/kitti.hpp"
 #include "io/opencalib.hpp"
+#include "io/output_path.hpp"
 
 namespace scenecal::cli {
 
@@ -72,6 +73,7 @@ CommandRunner AddImportCommand(CLI::App& app) {
   command->add_option("--count", options->count, "kitti: number of frames from --first (default: to the end)")
       ->check(kPositive);
   return [options, command] {
+    io::CheckOutputFolderWritable(options->output, "--output");
     const bool kitti_options = command->count("--cameras") + command->count("--first") + command->count("--count") > 0;
     if (options->format == "opencalib") {
       if (kitti_options) {

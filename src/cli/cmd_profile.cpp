@@ -34,6 +34,7 @@
 #include "core/nelder_mead.hpp"
 #include "io/dataset.hpp"
 #include "io/error.hpp"
+#include "io/output_path.hpp"
 
 namespace scenecal::cli {
 
@@ -139,6 +140,7 @@ struct Profile {
 
 int RunProfile(const ProfileArguments& args) {
   const auto start = std::chrono::steady_clock::now();
+  io::CheckOutputFile(args.output, "--output");
   CalibrationOptions options;
   ApplyCostArguments(args.cost, &options);
   std::string why;

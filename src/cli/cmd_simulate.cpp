@@ -9,6 +9,7 @@
 #include <spdlog/spdlog.h>
 
 #include "cli/commands.hpp"
+#include "io/output_path.hpp"
 #include "sim/simulator.hpp"
 
 namespace scenecal::cli {
@@ -106,6 +107,7 @@ CommandRunner AddSimulateCommand(CLI::App& app) {
       spdlog::error("simulate: {}", why);
       return kExitInvalidInput;
     }
+    io::CheckOutputFolderWritable(args->output, "--output");
     spdlog::info("simulate: preset {}, seed {}, output {}", args->preset, options.seed, args->output);
     const sim::SimulationSummary summary =
         sim::Simulate(options, args->output, [](double fraction, const std::string& message) {
