@@ -7,6 +7,9 @@ packages=(
   build-essential cmake ccache pkg-config
   libeigen3-dev libceres-dev libopencv-dev libyaml-cpp-dev libcli11-dev
   libspdlog-dev libfmt-dev libtbb-dev liblzf-dev zlib1g-dev
+  # DGP import: JSON scenes and .npz point clouds (zip). libzip's CMake package
+  # config names its command-line tools, so find_package(libzip) needs them too.
+  nlohmann-json3-dev libzip-dev zipcmp zipmerge ziptool
   libopenmpi-dev openmpi-bin
   libgtest-dev libgmock-dev libbenchmark-dev
   # The timing scripts (scripts/bench_*.sh): /usr/bin/time -v, Python 3 with PyYAML.
