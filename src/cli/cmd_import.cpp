@@ -1,14 +1,17 @@
 // scenecal import FORMAT SOURCE --output DATASET: converts other data layouts
 // into a native dataset (FORMAT.md).
 #include <chrono>
+#include <functional>
 #include <optional>
 #include <set>
 #include <sstream>
 
+#include <fmt/ranges.h>
 #include <spdlog/spdlog.h>
 
 #include "cli/commands.hpp"
 #include "cli/validators.hpp"
+#include "io/dgp.hpp"
 #include "io/kitti.hpp"
 #include "io/opencalib.hpp"
 #include "io/output_path.hpp"
@@ -31,6 +34,30 @@ std::optional<std::vector<int>> ParseCameraList(const std::string& text) {
   return indices;
 }
 
+// "CAMERA_01,CAMERA_05" -> names; nullopt when empty, malformed or repeated.
+std::optional<std::vector<std::string>> ParseNameList(const std::string& text) {
+  std::vector<std::string> names;
+  std::istringstream items(text);
+  for (std::string item; std::getline(items, item, ',');) {
+    if (item.empty()) return std::nullopt;
+    names.push_back(item);
+  }
+  if (names.empty() || text.back() == ',') return std::nullopt;
+  if (std::set<std::string>(names.begin(), names.end()).size() != names.size()) return std::nullopt;
+  return names;
+}
+
+// Copying a recording takes a while: a log line about every 10% of the files.
+std::function<void(std::size_t, std::size_t)> ProgressLogger(const char* what) {
+  const auto start = std::chrono::steady_clock::now();
+  return [next_report = std::size_t{0}, start, what](std::size_t done, std::size_t total) mutable {
+    if (done < next_report && done != total) return;
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    spdlog::info("{} {}/{} images and scans ({:.0f}%, {:.1f} s)", what, done, total, 100.0 * done / total, seconds);
+    next_report = done + std::max<std::size_t>(total / 10, 1);
+  };
+}
+
 }  // namespace
 
 CommandRunner AddImportCommand(CLI::App& app) {
@@ -40,6 +67,7 @@ CommandRunner AddImportCommand(CLI::App& app) {
     std::string output;
     bool force = false;
     std::string cameras;
+    std::string base_camera;
     std::size_t first = 0;
     std::size_t count = 0;
   };
@@ -58,23 +86,73 @@ CommandRunner AddImportCommand(CLI::App& app) {
       "    imported camera), lidar velodyne (3d; T_base_lidar = [R_rect_00 | 0] * calib_velo_to_cam, as the\n"
       "    initial guess and as ground_truth.yaml: KITTI's reference, not exact truth), trajectory.csv of the\n"
       "    base frame from the OXTS records, images and scans copied unchanged and named by their time (us\n"
-      "    since the Unix epoch, timestamps read as UTC). An empty timestamps.txt line (lost frame) is skipped.");
-  command->add_option("format", options->format, "Source layout: opencalib | kitti")
+      "    since the Unix epoch, timestamps read as UTC). An empty timestamps.txt line (lost frame) is skipped.\n"
+      "  dgp SCENE: a scene of TRI's DGP format (scene_<hash>.json, calibration/<key>.json, rgb/<camera>/,\n"
+      "    point_cloud/<lidar>/*.npz). Writes every camera (or --cameras) with the calibration's intrinsics\n"
+      "    and its extrinsics as the known inter-camera transforms (base frame --base-camera, default the first\n"
+      "    by name), every point cloud sensor as a 3d lidar (its calibration as the initial guess and as\n"
+      "    ground_truth.yaml: the recording's reference, not exact truth), trajectory.csv from the datums'\n"
+      "    world poses, images copied unchanged and the .npz clouds (X, Y, Z, INTENSITY) as scans.");
+  command->add_option("format", options->format, "Source layout: opencalib | kitti | dgp")
       ->required()
-      ->check(CLI::IsMember({"opencalib", "kitti"}));
-  command->add_option("source", options->source, "Source folder (opencalib: the set's folder; kitti: the drive folder)")
+      ->check(CLI::IsMember({"opencalib", "kitti", "dgp"}));
+  command->add_option("source", options->source, "Source folder (opencalib: the set's folder; kitti: the drive folder; dgp: the scene folder)")
       ->required();
   command->add_option("-o,--output", options->output, "Dataset folder to create")->required();
   command->add_flag("--force", options->force, "Replace a non-empty output folder");
   command->add_option("--cameras", options->cameras,
                       "kitti: cameras to import, indices 0..3 or names, e.g. 0,1 (grey stereo) or 2,3 (colour); "
-                      "default every image_0i folder present");
+                      "default every image_0i folder present. dgp: camera names, e.g. CAMERA_01,CAMERA_05; default "
+                      "every camera of the scene");
+  command->add_option("--base-camera", options->base_camera,
+                      "dgp: the camera whose frame is the base frame (default: the first imported camera by name)");
   command->add_option("--first", options->first, "kitti: first frame index to import (default 0)")->check(kNonNegative);
   command->add_option("--count", options->count, "kitti: number of frames from --first (default: to the end)")
       ->check(kPositive);
   return [options, command] {
     io::CheckOutputFolderWritable(options->output, "--output");
-    const bool kitti_options = command->count("--cameras") + command->count("--first") + command->count("--count") > 0;
+    const bool frame_options = command->count("--first") + command->count("--count") > 0;
+    const bool kitti_options = command->count("--cameras") > 0 || frame_options;
+    if (command->count("--base-camera") > 0 && options->format != "dgp") {
+      spdlog::error("--base-camera applies to the dgp format only");
+      return kExitInvalidInput;
+    }
+    if (options->format == "dgp") {
+      if (frame_options) {
+        spdlog::error("--first and --count apply to the kitti format only");
+        return kExitInvalidInput;
+      }
+      io::DgpImportOptions dgp;
+      if (command->count("--cameras") > 0) {
+        const std::optional<std::vector<std::string>> cameras = ParseNameList(options->cameras);
+        if (!cameras) {
+          spdlog::error("--cameras '{}': expected distinct camera names separated by commas, e.g. CAMERA_01,CAMERA_05",
+                        options->cameras);
+          return kExitInvalidInput;
+        }
+        dgp.cameras = *cameras;
+      }
+      dgp.base_camera = options->base_camera;
+      dgp.overwrite = options->force;
+      dgp.progress = ProgressLogger("wrote");
+      spdlog::info("reading and checking the DGP scene {}", options->source);
+      const io::DgpImportSummary summary = io::ImportDgp(options->source, options->output, dgp);
+      spdlog::info("imported {} -> {}: {} frames, cameras {} (base {}), lidars {}, {} images, {} scans ({} points), "
+                   "{} trajectory rows",
+                   summary.scene_file.string(), summary.dataset.string(), summary.frames,
+                   fmt::join(summary.cameras, ","), summary.base_frame, fmt::join(summary.lidars, ","), summary.images,
+                   summary.scans, summary.points, summary.poses);
+      if (summary.times_in_100ns) {
+        spdlog::warn("the scene's timestamps lie after the year 2200 when read as microseconds: read as 100 ns units");
+      }
+      // Datums of one time each carry the vehicle's pose: they should agree.
+      if (summary.pose_disagreement_m > 0.01 || summary.pose_disagreement_deg > 0.05) {
+        spdlog::warn("datums of the same time disagree about the vehicle's pose by up to {:.3f} m / {:.3f} deg; "
+                     "the trajectory takes their mean",
+                     summary.pose_disagreement_m, summary.pose_disagreement_deg);
+      }
+      return kExitSuccess;
+    }
     if (options->format == "opencalib") {
       if (kitti_options) {
         spdlog::error("--cameras, --first and --count apply to the kitti format only");
@@ -100,15 +178,7 @@ CommandRunner AddImportCommand(CLI::App& app) {
     kitti.first = options->first;
     if (command->count("--count") > 0) kitti.count = options->count;
     kitti.overwrite = options->force;
-    // Copying a drive takes a while: report about every 10% of the files.
-    std::size_t next_report = 0;
-    const auto start = std::chrono::steady_clock::now();
-    kitti.progress = [&next_report, start](std::size_t done, std::size_t total) {
-      if (done < next_report && done != total) return;
-      const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-      spdlog::info("copied {}/{} images and scans ({:.0f}%, {:.1f} s)", done, total, 100.0 * done / total, seconds);
-      next_report = done + std::max<std::size_t>(total / 10, 1);
-    };
+    kitti.progress = ProgressLogger("copied");
     spdlog::info("reading and checking the KITTI drive {}", options->source);
     const io::KittiImportSummary summary = io::ImportKitti(options->source, options->output, kitti);
     std::string names;
