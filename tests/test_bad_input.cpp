@@ -456,6 +456,27 @@ TEST(BadInput, UnwritableOutputPathsAreRefusedBeforeAnyWork) {
   }
 }
 
+// A push-broom lidar on a drive shorter than its swathe: refused with the
+// selection step that removed the frames, not blamed on the images.
+TEST(BadInput, ShortDriveNamesTheSelectionStepForA2dLidar) {
+  ASSERT_TRUE(fs::exists(SCENECAL_CLI_PATH)) << "build the scenecal target first";
+  const TempDir temp;
+  const fs::path dataset = temp.path() / "short";
+  const CliRun simulated = RunCli("simulate --preset robotcar --seed 2 --image-size 160x120 --distance 6 --output '" +
+                                      dataset.string() + "'",
+                                  temp.path());
+  ASSERT_EQ(simulated.exit_code, 0) << simulated.stderr_text;
+  const CliRun run =
+      RunCli("calibrate '" + dataset.string() + "' --output '" + (temp.path() / "r.yaml").string() + "'", temp.path());
+  EXPECT_EQ(run.exit_code, 1) << run.stderr_text;
+  for (const char* expected : {"standing still", "swathe window off the trajectory", "2d (push-broom)",
+                               "--swathe-length"}) {
+    EXPECT_NE(run.stderr_text.find(expected), std::string::npos) << expected << " in: " << run.stderr_text;
+  }
+  EXPECT_EQ(run.stderr_text.find("no scene with enough information"), std::string::npos) << run.stderr_text;
+  EXPECT_FALSE(fs::exists(temp.path() / "r.yaml"));
+}
+
 TEST(BadInput, InspectSaysWhyDataCannotBeCalibrated) {
   ASSERT_TRUE(fs::exists(SCENECAL_CLI_PATH)) << "build the scenecal target first";
   const TempDir temp;

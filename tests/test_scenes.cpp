@@ -99,6 +99,91 @@ TEST(Scenes, SpreadsFramesByDistanceAndSkipsStandingStill) {
   }
 }
 
+// A straight drive along x: `speed` m/s for `seconds`, poses every 0.1 s.
+Trajectory StraightDrive(double speed_mps, int seconds) {
+  std::vector<TimeUs> times;
+  std::vector<Eigen::Isometry3d> poses;
+  for (int i = 0; i <= 10 * seconds; ++i) {
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    pose.translation() = Eigen::Vector3d(speed_mps * 0.1 * i, 0, 0);
+    times.push_back(static_cast<TimeUs>(i) * kSecond / 10);
+    poses.push_back(pose);
+  }
+  return Trajectory(times, poses);
+}
+
+// Recordings without one whole swathe: a 3D lidar's scans are scenes by
+// themselves (standing: the nearest scan; short: the travel there is); a 2D
+// lidar gets none, and the counts say why.
+TEST(Scenes, StandingAndShortRecordingsServeA3dLidarOnly) {
+  Rig rig = OneCameraOneLidar();
+  rig.lidars[0].kind = LidarKind::k2d;
+  LidarInfo roof;
+  roof.name = "roof";
+  roof.kind = LidarKind::k3d;
+  rig.lidars.push_back(roof);
+  const std::map<std::string, std::vector<TimeUs>> images = {{"left", Every(kSecond / 10, 0, 3 * kSecond)}};
+  const std::map<std::string, std::vector<TimeUs>> scans = {{"rear", Every(kSecond / 10, kSecond / 50, 3 * kSecond)},
+                                                            {"roof", Every(kSecond / 10, kSecond / 50, 3 * kSecond)}};
+  SceneOptions options;
+  options.scenes_per_camera = 5;
+
+  const SceneSelection standing = SelectScenes(rig, StraightDrive(0.0, 3), images, scans, options);
+  EXPECT_EQ(standing.cameras[0].skipped_standing_still, 31);
+  ASSERT_EQ(standing.pairs.size(), 2u);
+  EXPECT_EQ(standing.pairs[0].scenes, 0) << "a 2d lidar needs motion";
+  EXPECT_EQ(standing.pairs[1].scenes, 5);
+  EXPECT_EQ(standing.pairs[1].short_swathe_scenes, 5);
+  std::vector<TimeUs> frame_times;
+  for (const Scene& scene : standing.scenes) {
+    EXPECT_EQ(scene.lidar, "roof");
+    ASSERT_EQ(scene.scans.size(), 1u) << "standing: the nearest scan only";
+    EXPECT_EQ(std::abs(scene.scans[0].t_us - scene.image_t_us), kSecond / 50);
+    frame_times.push_back(scene.image_t_us);
+  }
+  // Spread over the recording's time, not the first five frames.
+  ASSERT_EQ(frame_times.size(), 5u);
+  EXPECT_GT(frame_times.back() - frame_times.front(), 2 * kSecond);
+  EXPECT_NE(standing.Report().find("without a whole swathe"), std::string::npos) << standing.Report();
+  // The refusal names the step that removed the 2d lidar's frames and what it needs.
+  const std::string why = standing.WhyNoScenes(rig.lidars[0]);
+  EXPECT_NE(why.find("31 standing still"), std::string::npos) << why;
+  EXPECT_NE(why.find("2d (push-broom)"), std::string::npos) << why;
+  EXPECT_NE(why.find("10 m of travel"), std::string::npos) << why;
+  EXPECT_EQ(standing.WhyNoScenes(rig.lidars[1]), "");
+
+  // 3 m of travel at 1 m/s: the 10 m forward swathe never fits; the 3D lidar
+  // takes the scans ahead that the trajectory has.
+  const SceneSelection short_drive = SelectScenes(rig, StraightDrive(1.0, 3), images, scans, options);
+  EXPECT_EQ(short_drive.cameras[0].eligible, 0);
+  EXPECT_EQ(short_drive.pairs[0].scenes, 0);
+  EXPECT_EQ(short_drive.pairs[1].scenes, 5);
+  for (const Scene& scene : short_drive.scenes) {
+    SCOPED_TRACE(scene.image_t_us);
+    ASSERT_FALSE(scene.scans.empty());
+    if (3 * kSecond - scene.image_t_us >= kSecond / 2) {
+      // Every scan ahead of the image (forward swathe), up to the trajectory's end.
+      for (const SwatheScan& scan : scene.scans) EXPECT_GE(scan.t_us, scene.image_t_us);
+      const auto ahead = std::count_if(scans.at("roof").begin(), scans.at("roof").end(),
+                                       [&](TimeUs t) { return t >= scene.image_t_us && t <= 3 * kSecond; });
+      EXPECT_EQ(static_cast<long>(scene.scans.size()), ahead);
+    } else {
+      // Less than 0.5 m ahead: the nearest scan alone.
+      ASSERT_EQ(scene.scans.size(), 1u);
+      EXPECT_LE(std::abs(scene.scans[0].t_us - scene.image_t_us), kSecond / 20);
+    }
+  }
+
+  // A drive long enough for whole swathes keeps the usual selection for both.
+  const std::map<std::string, std::vector<TimeUs>> long_images = {{"left", Every(kSecond / 10, 0, 30 * kSecond)}};
+  const std::map<std::string, std::vector<TimeUs>> long_scans = {
+      {"rear", Every(kSecond / 10, kSecond / 50, 30 * kSecond)}, {"roof", Every(kSecond / 10, kSecond / 50, 30 * kSecond)}};
+  const SceneSelection moving = SelectScenes(rig, StraightDrive(1.0, 30), long_images, long_scans, options);
+  EXPECT_EQ(moving.pairs[0].scenes, 5);
+  EXPECT_EQ(moving.pairs[1].scenes, 5);
+  EXPECT_EQ(moving.pairs[1].short_swathe_scenes, 0);
+}
+
 TEST(Scenes, ForwardBackwardAndBothWindows) {
   const Trajectory trajectory = DriveWithStop();
   const auto scans = Every(kSecond / 50, 0, 100 * kSecond);

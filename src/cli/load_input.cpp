@@ -4,6 +4,7 @@
 #include <exception>
 #include <set>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
@@ -12,6 +13,7 @@
 #include <tbb/parallel_for.h>
 
 #include "core/geometry.hpp"
+#include "core/interrupt.hpp"
 
 namespace scenecal::cli {
 
@@ -27,6 +29,17 @@ LoadedScenes SelectAndLoadScenes(const io::Dataset& dataset, const SceneOptions&
   input->selection = SelectScenes(dataset.rig, dataset.trajectory, image_times, scan_times, scene_options);
   std::istringstream report(input->selection.Report());
   for (std::string line; std::getline(report, line);) spdlog::info("{}", line);
+  // A lidar without scenes is refused here, naming the selection step that
+  // removed its frames (not later, as if the images lacked information).
+  for (const LidarInfo& lidar : dataset.rig.lidars) {
+    const std::string why = input->selection.WhyNoScenes(lidar);
+    if (why.empty()) continue;
+    std::string advice;
+    if (lidar.kind == LidarKind::k2d && scene_options.swathe_length_m > input->selection.trajectory_length_m) {
+      advice = " Record a longer drive, or shorten --swathe-length (at most the drive's length).";
+    }
+    throw std::runtime_error("the data cannot be calibrated: " + why + advice);
+  }
 
   // Load only what the scenes use, in parallel.
   std::vector<std::pair<std::string, const io::SensorFile*>> image_files, scan_files;
@@ -48,10 +61,14 @@ LoadedScenes SelectAndLoadScenes(const io::Dataset& dataset, const SceneOptions&
   std::vector<GreyImage> images(image_files.size());
   std::vector<LidarScan> scans(scan_files.size());
   tbb::parallel_for(std::size_t{0}, image_files.size(), [&](std::size_t i) {
+    ThrowIfInterrupted();
     images[i] = io::ReadImage(*image_files[i].second, dataset.rig.FindCamera(image_files[i].first)->model, channel);
   });
   tbb::parallel_for(std::size_t{0}, scan_files.size(),
-                    [&](std::size_t i) { scans[i] = io::ReadScan(*scan_files[i].second); });
+                    [&](std::size_t i) {
+                      ThrowIfInterrupted();
+                      scans[i] = io::ReadScan(*scan_files[i].second);
+                    });
   LoadedScenes loaded;
   loaded.images = images.size();
   loaded.scans = scans.size();

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <sstream>
 
 namespace scenecal {
@@ -49,7 +50,37 @@ std::string SceneSelection::Report() const {
   for (const LidarSelectionReport& p : pairs) {
     out << "\n  " << p.camera << " / " << p.lidar << ": " << p.scenes << " scenes, " << p.scans_used
         << " scans; " << p.frames_without_scans << " frames without scans";
+    if (p.short_swathe_scenes > 0) {
+      out << "; " << p.short_swathe_scenes
+          << " scenes from frames without a whole swathe (standing or near the drive's ends: a 3d lidar's scans "
+             "at the travel there is)";
+    }
     if (p.scans_without_pose > 0) out << ", " << p.scans_without_pose << " scans without pose";
+  }
+  return out.str();
+}
+
+std::string SceneSelection::WhyNoScenes(const LidarInfo& lidar) const {
+  for (const Scene& scene : scenes) {
+    if (scene.lidar == lidar.name) return "";
+  }
+  std::ostringstream out;
+  out << "lidar " << lidar.name << " (" << (lidar.kind == LidarKind::k2d ? "2d" : "3d") << "): no scene.";
+  for (const CameraSelectionReport& c : cameras) {
+    out << " Camera " << c.camera << ": " << c.images << " images; left out " << c.skipped_no_pose
+        << " outside the trajectory, " << c.skipped_standing_still << " standing still, " << c.skipped_window_outside
+        << " with the " << swathe_length_m << " m swathe window off the trajectory";
+    for (const LidarSelectionReport& p : pairs) {
+      if (p.camera == c.camera && p.lidar == lidar.name && p.frames_without_scans > 0) {
+        out << ", " << p.frames_without_scans << " without a scan of " << lidar.name << " in their window";
+      }
+    }
+    out << ".";
+  }
+  out << " The trajectory covers " << std::round(trajectory_length_m * 100.0) / 100.0 << " m.";
+  if (lidar.kind == LidarKind::k2d && !static_dataset) {
+    out << " A 2d (push-broom) lidar sees the scene only through the vehicle's motion: each image needs "
+        << swathe_length_m << " m of travel at more than a walking pace within the trajectory.";
   }
   return out.str();
 }
@@ -109,6 +140,32 @@ std::vector<std::size_t> SpreadByDistance(const std::vector<double>& distances_m
   return chosen;
 }
 
+// The scans of a swathe clipped to the trajectory: those within
+// [from_m, to_m] of travel. With less than kMinShortSwatheTravelM of travel
+// in reach (a standing vehicle) further scans repeat the same view, so the
+// scan nearest the image time is taken alone, if the vehicle moved less than
+// that between the two.
+constexpr double kMinShortSwatheTravelM = 0.5;
+
+std::vector<TimeUs> ShortSwathe(const Trajectory& trajectory, const std::vector<TimeUs>& scan_times, TimeUs t_k,
+                                double from_m, double to_m) {
+  std::vector<TimeUs> window;
+  std::optional<TimeUs> nearest;
+  for (const TimeUs t : scan_times) {
+    if (t < trajectory.times_us().front() || t > trajectory.times_us().back()) continue;
+    const double d = trajectory.DistanceAt(t);
+    if (d >= from_m && d <= to_m) window.push_back(t);
+    if (!nearest || std::abs(t - t_k) < std::abs(*nearest - t_k)) nearest = t;
+  }
+  const double travel_m =
+      window.empty() ? 0.0 : trajectory.DistanceAt(window.back()) - trajectory.DistanceAt(window.front());
+  if (travel_m >= kMinShortSwatheTravelM) return window;
+  if (nearest && std::abs(trajectory.DistanceAt(*nearest) - trajectory.DistanceAt(t_k)) < kMinShortSwatheTravelM) {
+    return {*nearest};
+  }
+  return {};
+}
+
 }  // namespace
 
 SceneSelection SelectScenes(const Rig& rig, const Trajectory& trajectory,
@@ -119,6 +176,8 @@ SceneSelection SelectScenes(const Rig& rig, const Trajectory& trajectory,
   if (trajectory.empty()) return selection;
   selection.static_dataset = trajectory.size() == 1;
   const double total_m = trajectory.TotalDistance();
+  selection.swathe_length_m = options.swathe_length_m;
+  selection.trajectory_length_m = total_m;
   const double length_m = options.swathe_length_m;
   const double before_m = options.direction == SwatheDirection::kForward ? 0.0 : length_m;
   const double after_m = options.direction == SwatheDirection::kBackward ? 0.0 : length_m;
@@ -129,6 +188,10 @@ SceneSelection SelectScenes(const Rig& rig, const Trajectory& trajectory,
     const auto images_it = image_times_us.find(camera.name);
     std::vector<TimeUs> eligible_times;
     std::vector<double> eligible_distances;
+    // Frames with a pose that cannot have a whole swathe (standing, or too
+    // near the drive's ends): a 3D lidar still sees the scene from there.
+    std::vector<TimeUs> short_times;
+    std::vector<double> short_distances;
     if (images_it != image_times_us.end()) {
       for (const TimeUs t : images_it->second) {
         ++camera_report.images;
@@ -140,10 +203,14 @@ SceneSelection SelectScenes(const Rig& rig, const Trajectory& trajectory,
         if (!selection.static_dataset) {
           if (SpeedAt(trajectory, t, options.speed_window_s) < options.min_speed_mps) {
             ++camera_report.skipped_standing_still;
+            short_times.push_back(t);
+            short_distances.push_back(d);
             continue;
           }
           if (d - before_m < 0.0 || d + after_m > total_m) {
             ++camera_report.skipped_window_outside;
+            short_times.push_back(t);
+            short_distances.push_back(d);
             continue;
           }
         }
@@ -164,9 +231,19 @@ SceneSelection SelectScenes(const Rig& rig, const Trajectory& trajectory,
       const auto scans_it = scan_times_us.find(lidar.name);
       static const std::vector<TimeUs> kNoScans;
       const std::vector<TimeUs>& scan_times = scans_it == scan_times_us.end() ? kNoScans : scans_it->second;
-      for (const std::size_t index : chosen) {
-        const TimeUs t_k = eligible_times[index];
-        const double d_k = eligible_distances[index];
+      // A 3D lidar on a recording without one whole swathe (standing, or
+      // shorter than the swathe) takes the frames there are, each with the
+      // scans of the travel there is: a 3D scan is a scene by itself.
+      const bool short_swathes = lidar.kind == LidarKind::k3d && eligible_times.empty() && !short_times.empty();
+      const std::vector<TimeUs>& frame_times = short_swathes ? short_times : eligible_times;
+      const std::vector<double>& frame_distances = short_swathes ? short_distances : eligible_distances;
+      const std::size_t wanted = static_cast<std::size_t>(options.scenes_per_camera);
+      // Spread by time: standing frames share one distance.
+      const std::vector<std::size_t> frames =
+          short_swathes ? ThinEvenly(short_times.size(), std::min(short_times.size(), wanted)) : chosen;
+      for (const std::size_t index : frames) {
+        const TimeUs t_k = frame_times[index];
+        const double d_k = frame_distances[index];
         const Eigen::Isometry3d T_world_basek = *trajectory.PoseAt(t_k);
         Scene scene;
         scene.camera = camera.name;
@@ -177,6 +254,8 @@ SceneSelection SelectScenes(const Rig& rig, const Trajectory& trajectory,
         if (selection.static_dataset) {
           const auto range = std::equal_range(scan_times.begin(), scan_times.end(), t_k);
           window.assign(range.first, range.second);
+        } else if (short_swathes) {
+          window = ShortSwathe(trajectory, scan_times, t_k, d_k - before_m, d_k + after_m);
         } else {
           // Distance grows with time, so the window is a contiguous run of scans
           // around t_k: walk back while within before_m, forward while within after_m.
@@ -222,6 +301,7 @@ SceneSelection SelectScenes(const Rig& rig, const Trajectory& trajectory,
           continue;
         }
         ++pair_report.scenes;
+        if (short_swathes) ++pair_report.short_swathe_scenes;
         pair_report.scans_used += static_cast<int>(scene.scans.size());
         selection.scenes.push_back(std::move(scene));
       }

@@ -78,6 +78,11 @@ struct LidarSelectionReport {
   int frames_without_scans = 0;  // selected frames with no scan of this lidar in their window
   int scans_used = 0;            // total over scenes (a scan may serve several scenes)
   int scans_without_pose = 0;    // scans in a window but outside the trajectory
+  // 3D lidar on a recording where no frame of the camera has a whole swathe
+  // (standing, or a drive shorter than the swathe): scenes built from those
+  // frames with the scans of the travel there is (the nearest scan alone
+  // when standing).
+  int short_swathe_scenes = 0;
 };
 
 struct SceneSelection {
@@ -85,9 +90,14 @@ struct SceneSelection {
   std::vector<CameraSelectionReport> cameras;
   std::vector<LidarSelectionReport> pairs;
   bool static_dataset = false;  // one-row trajectory: scans taken at the image time
+  double swathe_length_m = 0.0;      // as asked (SceneOptions)
+  double trajectory_length_m = 0.0;  // distance the whole trajectory covers
 
   // Multi-line human-readable summary (for the CLI log).
   std::string Report() const;
+  // Empty when the lidar has a scene; else why not, step by step: per camera
+  // the images left out by each selection step, and what the lidar's kind needs.
+  std::string WhyNoScenes(const LidarInfo& lidar) const;
 };
 
 // image_times_us: by camera name; scan_times_us: by lidar name; each sorted
