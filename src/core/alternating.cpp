@@ -6,6 +6,7 @@
 
 #include <tbb/parallel_for.h>
 
+#include "core/interrupt.hpp"
 #include "core/upper_level.hpp"
 
 namespace scenecal {
@@ -216,6 +217,7 @@ AlternatingResult SolveAlternating(const AlternatingProblem& problem, const Alte
   };
 
   for (int alternation = 0; alternation < options.max_alternations; ++alternation) {
+    ThrowIfInterrupted();
     AlternationRecord record;
     record.alternation = alternation;
     const double shrink = std::pow(options.covariance_shrink, 0.5 * alternation);  // sigma scales by sqrt(w)

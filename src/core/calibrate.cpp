@@ -1,6 +1,7 @@
 #include "core/calibrate.hpp"
 
 #include "core/calibrate_alternating.hpp"
+#include "core/interrupt.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -185,6 +186,7 @@ PairCost BuildPairCost(const CalibrationInput& input, const CameraInfo& camera, 
   // Per scene: one swathe, or one per lidar range band (range_split_m).
   std::vector<std::vector<SceneSwathe>> swathes(scenes.size());
   tbb::parallel_for(std::size_t{0}, scenes.size(), [&](std::size_t s) {
+    ThrowIfInterrupted();
     const Scene& scene = *scenes[s];
     if (images_it == input.images.end() || scans_it == input.scans.end()) return;
     const auto image = images_it->second.find(scene.image_t_us);

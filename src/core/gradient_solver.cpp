@@ -13,6 +13,7 @@
 #include <ceres/manifold.h>
 #include <tbb/parallel_for.h>
 
+#include "core/interrupt.hpp"
 #include "core/pair_cost.hpp"
 
 namespace scenecal {
@@ -161,6 +162,9 @@ class TransformCost final : public ceres::FirstOrderFunction {
       out = value_scale_ * start_gradient_;
       return true;
     }
+    // Never throw through Ceres: a failed evaluation makes it back off at
+    // once, and the callback below ends the solve.
+    if (InterruptRequested()) return false;
     const bool first = counts_->evaluations++ == 0;
     Vector6d local = Vector6d::Zero();
     if (gradient != nullptr) ++counts_->gradient_evaluations;
@@ -193,6 +197,7 @@ class StopCallback final : public ceres::IterationCallback {
  public:
   explicit StopCallback(const StopRequested* stop_requested) : stop_requested_(stop_requested) {}
   ceres::CallbackReturnType operator()(const ceres::IterationSummary&) override {
+    if (InterruptRequested()) return ceres::SOLVER_ABORT;  // MinimiseWithGradient then throws Interrupted
     if (*stop_requested_ && (*stop_requested_)()) {
       stopped = true;
       return ceres::SOLVER_TERMINATE_SUCCESSFULLY;
@@ -237,6 +242,7 @@ GradientSolverSummary MinimiseWithGradient(const CostWithGradient& cost, const G
   Vector6d x = Vector6d::Zero();
   ceres::GradientProblemSolver::Summary ceres_summary;
   ceres::Solve(solver_options, problem, x.data(), &ceres_summary);
+  ThrowIfInterrupted();
   *transform = state.Transform(x.data());
   summary.iterations = static_cast<int>(ceres_summary.iterations.size()) - 1;  // iteration 0 is the start
   summary.evaluations = counts.evaluations.load();

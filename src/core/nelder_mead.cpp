@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "core/geometry.hpp"
+#include "core/interrupt.hpp"
 
 namespace scenecal {
 
@@ -97,6 +98,7 @@ NelderMeadSummary MinimiseNelderMead(const std::function<double(const Eigen::Vec
   summary.termination = NelderMeadTermination::kMaxIterations;
   const std::size_t worst = static_cast<std::size_t>(n);
   while (true) {
+    ThrowIfInterrupted();  // an iteration costs at most n + 2 evaluations
     // Convergence tests on the sorted simplex (vertex 0 is the best).
     if (values[worst] - values[0] <= options.function_tolerance) {
       summary.termination = NelderMeadTermination::kFunctionTolerance;

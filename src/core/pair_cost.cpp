@@ -9,6 +9,8 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include "core/interrupt.hpp"
+
 namespace scenecal {
 
 bool PairCostOptions::IsValid(std::string* why) const {
@@ -64,6 +66,7 @@ PairCost::PairCost(CameraInfo camera, std::string lidar, std::vector<SceneSwathe
 
 void PairCost::SetImageBlur(double fraction_of_width) {
   tbb::parallel_for(std::size_t{0}, scenes_.size(), [&](std::size_t s) {
+    ThrowIfInterrupted();
     scenes_[s].SetImageBlur(fraction_of_width * static_cast<double>(scenes_[s].Image().cols));
   });
 }
@@ -88,6 +91,7 @@ int PairCost::CountState(SceneState state) const {
 
 int PairCost::RefreshVisibility(const Eigen::Isometry3d& T_camera_lidar) {
   tbb::parallel_for(std::size_t{0}, scenes_.size(), [&](std::size_t s) {
+    ThrowIfInterrupted();
     scenes_[s].RefreshVisibility(T_camera_lidar, options_.swathe);
     projected_at_refresh_[s] = scenes_[s].CountProjected(T_camera_lidar);
   });

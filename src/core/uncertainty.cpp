@@ -8,6 +8,7 @@
 #include <Eigen/Eigenvalues>
 #include <fmt/format.h>
 
+#include "core/interrupt.hpp"
 #include "core/nelder_mead.hpp"
 
 namespace scenecal {
@@ -31,6 +32,7 @@ class UnitCosts {
   int Evaluations() const { return evaluations_; }
 
   std::map<TimeUs, double> Evaluate(const Eigen::Isometry3d& T_base_lidar) {
+    ThrowIfInterrupted();
     ++evaluations_;
     std::map<TimeUs, double> units;
     const double pair_weight = 1.0 / static_cast<double>(pairs_.size());

@@ -5,8 +5,19 @@
 
 #include <ceres/ceres.h>
 
+#include "core/interrupt.hpp"
+
 namespace scenecal {
 namespace {
+
+// Ends a solve at the next iteration once an interruption is requested (never
+// throw through Ceres); SolveUpperLevel then throws Interrupted.
+class AbortWhenInterrupted final : public ceres::IterationCallback {
+ public:
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary&) override {
+    return InterruptRequested() ? ceres::SOLVER_ABORT : ceres::SOLVER_CONTINUE;
+  }
+};
 
 // Y = Exp(delta) * Y0: a local update of the implied base-frame lidar pose.
 Eigen::Isometry3d Update(const double* delta, const Eigen::Isometry3d& Y0) {
@@ -135,8 +146,11 @@ UpperLevelSolution SolveUpperLevel(const UpperLevelProblem& problem) {
   options.parameter_tolerance = 1e-12;
   options.num_threads = 1;
   options.logging_type = ceres::SILENT;
+  AbortWhenInterrupted abort_when_interrupted;
+  options.callbacks.push_back(&abort_when_interrupted);
   ceres::Solver::Summary summary;
   ceres::Solve(options, &ceres_problem, &summary);
+  ThrowIfInterrupted();
 
   solution.converged = summary.IsSolutionUsable();
   solution.final_cost = 2.0 * summary.final_cost;  // Ceres reports half the sum of squares
