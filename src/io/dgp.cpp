@@ -12,6 +12,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include "core/geometry.hpp"
+#include "core/interrupt.hpp"
 #include "io/dataset.hpp"
 #include "io/npz.hpp"
 #include "io/staged_output.hpp"
@@ -502,6 +503,7 @@ DgpImportSummary ImportDgp(const fs::path& scene_dir_in, const fs::path& output,
   const std::size_t total = images.size() + scans.size();
   std::size_t done = 0;
   const auto progress = [&] {
+    ThrowIfInterrupted();  // after each file; StagedOutput's destructor removes the partial copy
     ++done;
     if (options.progress) options.progress(done, total);
   };
@@ -535,6 +537,7 @@ DgpImportSummary ImportDgp(const fs::path& scene_dir_in, const fs::path& output,
     progress();
   }
   OpenDataset(root);  // the result must read back as a valid dataset
+  ThrowIfInterrupted();  // the last point at which the output can still be left as it was
   staged.Commit();
 
   summary.dataset = target;

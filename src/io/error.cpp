@@ -9,6 +9,8 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include "io/temporary_paths.hpp"
+
 namespace scenecal::io {
 
 void WriteFileAtomically(const std::string& path, const std::string& content) {
@@ -17,6 +19,7 @@ void WriteFileAtomically(const std::string& path, const std::string& content) {
   const fs::path directory = target.has_parent_path() ? target.parent_path() : fs::path(".");
   std::random_device entropy;
   const fs::path temporary = directory / ("." + target.filename().string() + ".tmp" + std::to_string(entropy()));
+  const RegisteredTemporaryPath registration(temporary);  // for a process that must end at once
   const int fd = ::open(temporary.c_str(), O_WRONLY | O_CREAT | O_EXCL, 0644);
   if (fd < 0) throw std::runtime_error("cannot create " + temporary.string() + " to write " + path);
   std::size_t written = 0;

@@ -13,6 +13,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include "core/geometry.hpp"
+#include "core/interrupt.hpp"
 #include "io/dataset.hpp"
 #include "io/staged_output.hpp"
 #include "io/yaml_fields.hpp"
@@ -479,6 +480,7 @@ KittiImportSummary ImportKitti(const fs::path& drive_dir_in, const fs::path& out
         t_cami_cam0[static_cast<std::size_t>(base_index)] - t_cami_cam0[static_cast<std::size_t>(index)];
     ReadImage(image_files[c].front(), camera.model);  // decodes it: a corrupt image fails here
     for (const SensorFile& file : image_files[c]) {   // headers only: sizes must agree
+      ThrowIfInterrupted();
       const auto other = ImageFileSize(file.path);
       if (!other) Fail(file.path.string(), "image", "not a readable PNG header", "a PNG image");
       if (*other != *size) {
@@ -569,6 +571,7 @@ KittiImportSummary ImportKitti(const fs::path& drive_dir_in, const fs::path& out
   WriteGroundTruth(root / "ground_truth.yaml", truth);
   std::size_t done = 0;
   const auto copy = [&](const SensorFile& file, const fs::path& folder) {
+    ThrowIfInterrupted();  // StagedOutput's destructor then removes the partial copy
     fs::copy_file(file.path, folder / (std::to_string(file.t_us) + file.path.extension().string()));
     ++done;
     if (options.progress) options.progress(done, total);
@@ -585,6 +588,7 @@ KittiImportSummary ImportKitti(const fs::path& drive_dir_in, const fs::path& out
   summary.scans = scan_files.size();
   OpenDataset(root);  // the result must read back as a valid dataset
 
+  ThrowIfInterrupted();  // the last point at which the output can still be left as it was
   staged.Commit();
 
   summary.dataset = target;

@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
 
+#include "core/interrupt.hpp"
 #include "io/dataset.hpp"
 #include "io/pcd.hpp"
 #include "io/staged_output.hpp"
@@ -158,6 +159,7 @@ OpenCalibImportSummary ImportOpenCalib(const fs::path& source_dir, const fs::pat
   WriteScan(root / "lidars" / "lidar" / (std::to_string(t_us) + ".bin"), cloud.points);
   OpenDataset(root);  // the result must read back as a valid dataset
 
+  ThrowIfInterrupted();  // the last point at which the output can still be left as it was
   staged.Commit();
 
   OpenCalibImportSummary summary;

@@ -3,6 +3,7 @@
 #include <random>
 #include <string>
 #include <system_error>
+#include <vector>
 
 #include <fmt/format.h>
 
@@ -35,7 +36,9 @@ fs::path CheckOutputFolder(const fs::path& output, bool overwrite) {
   return target;
 }
 
-StagedOutput::StagedOutput(fs::path target) : target_(std::move(target)), staging_(SiblingTemporary(target_, "import")) {
+StagedOutput::StagedOutput(fs::path target, const std::string& purpose)
+    : target_(std::move(target)), staging_(SiblingTemporary(target_, purpose)) {
+  registration_ = std::make_unique<RegisteredTemporaryPath>(staging_);
   fs::create_directories(staging_);
 }
 
@@ -55,6 +58,26 @@ void StagedOutput::Commit() {
   fs::rename(staging_, target_);
   committed_ = true;
   if (!aside.empty()) fs::remove_all(aside, error);
+}
+
+void StagedOutput::CommitEntries() {
+  fs::create_directories(target_);
+  std::vector<fs::path> entries;  // listed first: the loop below empties the folder
+  for (const fs::directory_entry& entry : fs::directory_iterator(staging_)) entries.push_back(entry.path());
+  for (const fs::path& entry : entries) {
+    const fs::path destination = target_ / entry.filename();
+    std::error_code error;
+    fs::path aside;
+    if (fs::exists(fs::symlink_status(destination, error))) {
+      aside = SiblingTemporary(destination, "old");
+      fs::rename(destination, aside);
+    }
+    fs::rename(entry, destination);
+    if (!aside.empty()) fs::remove_all(aside, error);
+  }
+  committed_ = true;
+  std::error_code ignored;
+  fs::remove_all(staging_, ignored);
 }
 
 }  // namespace scenecal::io

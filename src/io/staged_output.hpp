@@ -4,6 +4,10 @@
 #pragma once
 
 #include <filesystem>
+#include <memory>
+#include <string>
+
+#include "io/temporary_paths.hpp"
 
 namespace scenecal::io {
 
@@ -13,9 +17,12 @@ std::filesystem::path CheckOutputFolder(const std::filesystem::path& output, boo
 
 class StagedOutput {
  public:
-  // Creates the hidden staging folder beside target (".<name>.import-<hex>").
-  explicit StagedOutput(std::filesystem::path target);
-  ~StagedOutput();  // removes the staging folder unless committed
+  // Creates the hidden staging folder beside target (".<name>.<purpose>-<hex>"),
+  // listed in io::RemoveRegisteredTemporaryPaths while it exists.
+  explicit StagedOutput(std::filesystem::path target, const std::string& purpose = "import");
+  // Removes the staging folder unless committed (also while unwinding from an
+  // error or an interruption: the target is then left as it was).
+  ~StagedOutput();
   StagedOutput(const StagedOutput&) = delete;
   StagedOutput& operator=(const StagedOutput&) = delete;
 
@@ -23,9 +30,15 @@ class StagedOutput {
   // Renames the staging folder to the target; an existing target is moved
   // aside first and removed after.
   void Commit();
+  // Moves every entry of the staging folder into the target folder (created
+  // when missing), each replacing an entry of the same name; the target's other
+  // entries stay. For outputs that share a folder with the user's own files
+  // (`experiment --output DIR`). Then removes the staging folder.
+  void CommitEntries();
 
  private:
   std::filesystem::path target_, staging_;
+  std::unique_ptr<RegisteredTemporaryPath> registration_;
   bool committed_ = false;
 };
 

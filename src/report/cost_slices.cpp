@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 
+#include "core/interrupt.hpp"
 #include "core/upper_level.hpp"
 
 namespace scenecal::report {
@@ -37,6 +38,7 @@ CostSliceSet SampleCostSlices(const TransformCost& cost, const Eigen::Isometry3d
     slice.dof = dof;
     const double half = dof < 3 ? options.half_range_translation_m : options.half_range_rotation_rad;
     for (int s = 0; s < samples; ++s) {
+      ThrowIfInterrupted();  // `calibrate --report` samples a few hundred costs
       const double offset = -half + 2.0 * half * s / (samples - 1);
       Vector6d twist = Vector6d::Zero();
       twist[dof] = offset;

@@ -9,6 +9,7 @@
 #include <tbb/parallel_for.h>
 
 #include "core/geometry.hpp"
+#include "core/interrupt.hpp"
 #include "sim/noise.hpp"
 
 namespace scenecal::sim {
@@ -39,6 +40,7 @@ cv::Mat RenderImage(const World& world, const CameraModel& camera, const Eigen::
   const double corner_squared = std::pow(0.5 * width, 2) + std::pow(0.5 * height, 2);
   tbb::parallel_for(tbb::blocked_range<int>(0, height), [&](const tbb::blocked_range<int>& rows) {
     for (int v = rows.begin(); v < rows.end(); ++v) {
+      ThrowIfInterrupted();  // a full-size image takes seconds of ray casting
       auto* row = linear.ptr<float>(v);
       for (int u = 0; u < width; ++u) {
         const Eigen::Vector3d direction = (R * camera.Unproject(Eigen::Vector2d(u, v))).normalized();

@@ -13,8 +13,10 @@
 #include <unistd.h>
 
 #include "core/geometry.hpp"
+#include "core/interrupt.hpp"
 #include "io/dataset.hpp"
 #include "io/error.hpp"
+#include "io/temporary_paths.hpp"
 #include "sim/noise.hpp"
 
 namespace scenecal::sim {
@@ -348,6 +350,7 @@ SimulationSummary Simulate(const SimulationOptions& options, const fs::path& out
   const fs::path temporary =
       target.parent_path() / fmt::format(".{}.partial-{}", target.filename().string(), static_cast<long>(::getpid()));
   fs::remove_all(temporary, ec);
+  const io::RegisteredTemporaryPath registration(temporary);  // for a process that must end at once
   fs::create_directories(temporary);
   try {
     io::WriteDatasetSkeleton(temporary, written, summary.odometry_trajectory, summary.ground_truth);
@@ -388,6 +391,7 @@ SimulationSummary Simulate(const SimulationOptions& options, const fs::path& out
     };
 
     tbb::parallel_for(std::size_t{0}, image_tasks.size(), [&](std::size_t i) {
+      ThrowIfInterrupted();  // unwinds to the catch below, which removes the temporary folder
       const ImageTask& task = image_tasks[i];
       const CameraInfo& camera = true_rig.cameras[task.camera];
       const Eigen::Isometry3d T_world_camera = T_world_base_at(task.t) * camera.T_base_camera;
@@ -400,6 +404,7 @@ SimulationSummary Simulate(const SimulationOptions& options, const fs::path& out
 
     std::atomic<std::size_t> returns{0}, no_returns{0};
     tbb::parallel_for(std::size_t{0}, scan_tasks.size(), [&](std::size_t i) {
+      ThrowIfInterrupted();
       const ScanTask& task = scan_tasks[i];
       const LidarInfo& lidar = true_rig.lidars[task.lidar];
       const LidarModel& model = simulated.lidar_models.at(lidar.name);
