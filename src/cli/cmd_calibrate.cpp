@@ -21,6 +21,7 @@
 #include "cli/calibrate_alt.hpp"
 #include "cli/commands.hpp"
 #include "cli/cost_arguments.hpp"
+#include "cli/interrupt_handling.hpp"
 #include "cli/load_input.hpp"
 #include "cli/report_writer.hpp"
 #include "cli/setting.hpp"
@@ -28,6 +29,7 @@
 #include "cli/validators.hpp"
 #include "core/calibrate.hpp"
 #include "core/geometry.hpp"
+#include "core/interrupt.hpp"
 #include "io/dataset.hpp"
 #include "io/output_path.hpp"
 
@@ -314,12 +316,14 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
     // The per-alternation history (lower and upper solutions per pair) for the paper's Fig. 4 and 6.
     extra["history"] = HistoryYaml(alternating_run->details, alternating_run->problem);
   }
-  io::WriteCalibrationResult(args.output, result, extra);
-  spdlog::info("wrote {} ({})", args.output, result.termination);
+  // The report first: it takes a while, and an interruption or a failure
+  // there must not leave a result file without the report asked for.
   if (!args.report_dir.empty()) {
     WriteCalibrationReport(args.report_dir, input, options, outcome, alternating_run ? &*alternating_run : nullptr,
                            dataset);
   }
+  io::WriteCalibrationResult(args.output, result, extra);
+  spdlog::info("wrote {} ({})", args.output, result.termination);
 
   if (dataset.ground_truth) {
     const GroundTruth& truth = *dataset.ground_truth;
@@ -358,6 +362,10 @@ int Run(const CalibrateArguments& given) {
   int exit_code = kExitFailure;
   try {
     exit_code = RunCalibration(args, group);
+  } catch (const Interrupted&) {
+    // The other ranks may wait in a collective for this one: end them all.
+    spdlog::error("rank {}: interrupted by {}; no output written", group.rank(), InterruptSignalName());
+    group.AbortAll(InterruptExitCode());
   } catch (const io::InputError& e) {
     spdlog::error("rank {}: {}", group.rank(), e.what());
     group.AbortAll(kExitInvalidInput);

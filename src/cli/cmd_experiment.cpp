@@ -33,6 +33,7 @@
 #include "io/dataset.hpp"
 #include "io/error.hpp"
 #include "io/output_path.hpp"
+#include "io/staged_output.hpp"
 #include "report/html_report.hpp"
 #include "sim/simulator.hpp"
 
@@ -293,14 +294,15 @@ int RunExperiment(const ExperimentArguments& given) {
 
   // The dataset: given, or simulated into OUTPUT/dataset.
   io::CheckOutputFolderWritable(args.output, "--output");
-  const std::filesystem::path output(args.output);
-  std::error_code created;
-  std::filesystem::create_directories(output, created);
-  if (created) {
-    spdlog::error("--output {}: cannot create the directory: {}", args.output, created.message());
-    return kExitInvalidInput;
-  }
+  std::filesystem::path final_output = std::filesystem::absolute(args.output).lexically_normal();
+  if (!final_output.has_filename()) final_output = final_output.parent_path();  // "out/" -> "out"
+  // Everything is written into a hidden folder beside OUTPUT and moved into it
+  // at the end: an interrupted or failed experiment leaves OUTPUT as it was
+  // (its other files stay; dataset/, runs.csv, report.html ... are replaced).
+  io::StagedOutput staged(final_output, "experiment");
+  const std::filesystem::path& output = staged.Staging();
   std::string dataset_path = args.dataset;
+  std::string dataset_shown = args.dataset;  // where the dataset is once the experiment is done
   std::map<std::string, std::string> settings;
   if (dataset_path.empty()) {
     sim::SimulationOptions simulation;
@@ -322,9 +324,11 @@ int RunExperiment(const ExperimentArguments& given) {
       spdlog::error("simulation: {}", why);
       return kExitInvalidInput;
     }
+    io::CheckOutputFolder(final_output / "dataset", args.force);
     dataset_path = (output / "dataset").string();
+    dataset_shown = (final_output / "dataset").string();
     spdlog::info("simulating preset {} (seed {}, {} m, {}x{}) into {}", args.preset, args.seed, args.distance_m,
-                 simulation.image_width, simulation.image_height, dataset_path);
+                 simulation.image_width, simulation.image_height, dataset_shown);
     int last_percent = -10;
     const sim::SimulationSummary summary =
         sim::Simulate(simulation, dataset_path, [&](double fraction, const std::string& message) {
@@ -343,13 +347,13 @@ int RunExperiment(const ExperimentArguments& given) {
 
   const io::Dataset dataset = io::OpenDataset(dataset_path);
   if (!dataset.ground_truth) {
-    spdlog::error("{}: the experiment compares with the truth and needs ground_truth.yaml", dataset_path);
+    spdlog::error("{}: the experiment compares with the truth and needs ground_truth.yaml", dataset_shown);
     return kExitInvalidInput;
   }
   if (!args.setting.empty()) {
     const std::string misfit = SettingMisfit(dataset.rig, dataset.trajectory.size());
     if (!misfit.empty()) {
-      spdlog::error("--setting {} on {}: {}", args.setting, dataset_path, misfit);
+      spdlog::error("--setting {} on {}: {}", args.setting, dataset_shown, misfit);
       return kExitInvalidInput;
     }
     options.cost.swathe.refresh_border_px = SettingRefreshBorderPx(dataset.rig);
@@ -366,7 +370,7 @@ int RunExperiment(const ExperimentArguments& given) {
   const GroundTruth& truth = *dataset.ground_truth;
   for (const LidarInfo& lidar : dataset.rig.lidars) {
     if (truth.T_base_lidar.find(lidar.name) == truth.T_base_lidar.end()) {
-      spdlog::error("{}: ground_truth.yaml has no T_base_lidar for lidar {}", dataset_path, lidar.name);
+      spdlog::error("{}: ground_truth.yaml has no T_base_lidar for lidar {}", dataset_shown, lidar.name);
       return kExitInvalidInput;
     }
   }
@@ -466,7 +470,8 @@ int RunExperiment(const ExperimentArguments& given) {
                     "[{}/{}] guess {} {}:{} ({:.1f} s) | elapsed {}, about {} left", done, total, g + 1,
                     Method(scheme, metric), summary, seconds, FormatDuration(elapsed_s()),
                     FormatDuration(spent_s / done * (total - done)));
-        // Written after every run, so an interrupted experiment keeps what it measured.
+        // Written after every run (in the staging folder: a run that is
+        // killed outright leaves it there, hidden beside OUTPUT, with what it measured).
         io::WriteFileAtomically((output / "runs.csv").string(), RunsCsv(runs));
       }
     }
@@ -480,7 +485,7 @@ int RunExperiment(const ExperimentArguments& given) {
       "Dataset {}. Each initial guess is the true T_base_lidar moved by exactly {} m and {} deg in random "
       "directions (seed {}); every scheme and metric starts from the same {} guesses. Errors are those of the "
       "calibrated T_base_lidar against ground_truth.yaml.",
-      dataset_path, args.perturb_translation_m, args.perturb_rotation_deg, args.seed, args.guesses);
+      dataset_shown, args.perturb_translation_m, args.perturb_rotation_deg, args.seed, args.guesses);
   for (const std::string& scheme : args.schemes) {
     for (const std::string& metric : args.metrics) {
       data.methods.push_back(Method(scheme, metric));
@@ -495,7 +500,7 @@ int RunExperiment(const ExperimentArguments& given) {
     data.runs.push_back(row);
   }
   data.settings = settings;
-  data.settings["dataset"] = dataset_path;
+  data.settings["dataset"] = dataset_shown;
   data.settings["guesses"] = fmt::format("{} ({} m, {} deg from the truth, seed {})", args.guesses,
                                          args.perturb_translation_m, args.perturb_rotation_deg, args.seed);
   data.settings["schemes"] = fmt::format("{}", fmt::join(args.schemes, ", "));
@@ -545,17 +550,20 @@ int RunExperiment(const ExperimentArguments& given) {
   }
   report::WriteReportDirectory(output.string(), report::RenderExperimentReport(data),
                                report::ExperimentReportAttachments(data));
-  spdlog::info("wrote {} and {} ({} runs, {})", (output / "runs.csv").string(), (output / "report.html").string(),
+  spdlog::info("wrote {} and {} ({} runs, {})", (final_output / "runs.csv").string(),
+               (final_output / "report.html").string(),
                done, FormatDuration(elapsed_s()));
 
   // A summary per method (Markdown) on stdout and in DIR/summary.md.
   const std::string summary = SummaryTable(runs, data.methods);
   fmt::print("{}", summary);
   io::WriteFileAtomically((output / "summary.md").string(), summary);
+  staged.CommitEntries();
   bool any_success = false;
   for (const RunRecord& run : runs) any_success = any_success || run.success;
   if (!any_success) {
-    spdlog::error("no run could be calibrated (see the termination column of {})", (output / "runs.csv").string());
+    spdlog::error("no run could be calibrated (see the termination column of {})",
+                  (final_output / "runs.csv").string());
     return kExitFailure;
   }
   return kExitSuccess;

@@ -31,6 +31,7 @@
 #include "cli/validators.hpp"
 #include "core/calibrate.hpp"
 #include "core/geometry.hpp"
+#include "core/interrupt.hpp"
 #include "core/nelder_mead.hpp"
 #include "io/dataset.hpp"
 #include "io/error.hpp"
@@ -242,6 +243,7 @@ int RunProfile(const ProfileArguments& args) {
       profile->costs[dof].resize(offsets.size());
       current_dof = dof;
       for (std::size_t i = 0; i < offsets.size(); ++i) {
+        ThrowIfInterrupted();
         Vector6d delta = Vector6d::Zero();
         if (dof == kLine) {
           delta = offsets[i] * to_target;

@@ -9,10 +9,13 @@
 #include <spdlog/spdlog.h>
 
 #include "cli/commands.hpp"
+#include "cli/interrupt_handling.hpp"
+#include "core/interrupt.hpp"
 #include "io/error.hpp"
 
 int main(int argc, char** argv) {
   using namespace scenecal::cli;
+  InstallInterruptHandlers();  // before any thread starts (TBB, MPI)
   // Progress and diagnostics go to stderr; stdout carries results only.
   auto logger = spdlog::stderr_color_mt("scenecal");
   spdlog::set_default_logger(logger);
@@ -60,6 +63,10 @@ int main(int argc, char** argv) {
     }
     spdlog::error("no command given; see scenecal --help");
     return kExitInvalidInput;
+  } catch (const scenecal::Interrupted&) {
+    // The destructors on the way out removed the temporary files and staging folders.
+    spdlog::error("interrupted by {}; no output written", InterruptSignalName());
+    return InterruptExitCode();
   } catch (const scenecal::io::InputError& e) {
     spdlog::error("{}", e.what());
     return kExitInvalidInput;
