@@ -384,5 +384,34 @@ TEST(DatasetIo, SummaryOfTheSmallDataset) {
   EXPECT_EQ(quick_summary.lidars[0].points_max, 14u);
 }
 
+// Found by fuzz_scan: an empty scan copied 0 bytes from a null pointer
+// (undefined behaviour; UBSan builds report it).
+TEST(DatasetIo, EmptyScanFileHasNoPoints) {
+  const LidarScan scan = io::ParseScan("", "0.bin", 7);
+  EXPECT_TRUE(scan.points.empty());
+  EXPECT_EQ(scan.no_returns, 0u);
+  EXPECT_EQ(scan.t_us, 7);
+}
+
+// Found by fuzz_calibration_result: a byte that is not UTF-8 was read as it
+// is but written back as U+FFFD, so a file did not survive a round trip. YAML
+// is Unicode text: such bytes are refused, naming the line.
+TEST(DatasetIo, YamlFilesMustBeUtf8) {
+  const std::string result = "format: scenecal-calibration/1\nlidars: {}\npairs: []\nwarnings:\n  - \"caf\xe9\"\n";
+  try {
+    io::ParseCalibrationResult(result, "result.yaml");
+    ADD_FAILURE() << "accepted";
+  } catch (const io::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("result.yaml: line 5"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("not UTF-8"), std::string::npos) << e.what();
+  }
+  for (const char* bad : {"\xc0\xaf", "\xed\xa0\x80", "\xf4\x90\x80\x80", "\xe2\x82"}) {  // overlong, surrogate, > U+10FFFF, cut
+    EXPECT_THROW(io::ParseRig(std::string(kValidRig) + "  x: \"" + bad + "\"\n", "rig.yaml"), io::InputError) << bad;
+  }
+  // Well-formed UTF-8 (2, 3 and 4 bytes) is text like any other.
+  const std::string good = "format: scenecal-calibration/1\nlidars: {}\npairs: []\nwarnings: [\"caf\xc3\xa9 \xe2\x82\xac \xf0\x9f\x99\x82\"]\n";
+  EXPECT_EQ(io::ParseCalibrationResult(good, "result.yaml").warnings.at(0), "caf\xc3\xa9 \xe2\x82\xac \xf0\x9f\x99\x82");
+}
+
 }  // namespace
 }  // namespace scenecal

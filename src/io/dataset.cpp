@@ -37,6 +37,12 @@ constexpr char kTrajectoryHeader[] = "timestamp_us,x,y,z,qx,qy,qz,qw";
 // Largest image or scan file read whole into memory (bytes); larger is refused
 // as certainly not a frame of this format.
 constexpr std::size_t kMaxDataFileBytes = std::size_t{1} << 30;
+// Largest ground_truth.yaml or result file read (bytes).
+constexpr std::size_t kMaxYamlFileBytes = std::size_t{64} << 20;
+// Largest rig.yaml (bytes): 64 cameras and 64 lidars take ~30 KB, so this
+// leaves room for `extra:` while a file of a million sensors is refused
+// before yaml-cpp spends seconds and hundreds of MB on it.
+constexpr std::size_t kMaxRigFileBytes = std::size_t{4} << 20;
 
 bool IsIdentity(const Eigen::Isometry3d& transform, double tolerance) {
   return (transform.matrix() - Eigen::Matrix4d::Identity()).cwiseAbs().maxCoeff() <= tolerance;
@@ -135,10 +141,13 @@ LidarInfo ParseLidar(const YamlReader& yaml, const std::string& name, const YAML
 
 // Sensor names of a cameras:/lidars: mapping, checked, in file order.
 template <typename Parse>
-void ParseSensors(const YamlReader& yaml, const YAML::Node& map, const std::string& field, std::set<std::string>* names,
-                  Parse parse) {
+void ParseSensors(const YamlReader& yaml, const YAML::Node& map, const std::string& field, std::size_t max_sensors,
+                  std::set<std::string>* names, Parse parse) {
   yaml.RequireMap(map, field);
   if (map.size() == 0) yaml.Fail(map, field, "no sensors", "at least one");
+  if (map.size() > max_sensors) {
+    yaml.Fail(map, field, fmt::format("{} sensors", map.size()), fmt::format("at most {}", max_sensors));
+  }
   for (const auto& entry : map) {
     if (!entry.first.IsScalar()) yaml.Fail(entry.first, field, "a key that is " + detail::Describe(entry.first), "a name");
     const std::string name = entry.first.Scalar();
@@ -380,8 +389,13 @@ std::optional<TimeUs> ParseTimestamp(const std::string& text) {
 
 // ---- rig.yaml ------------------------------------------------------------------
 
-Rig ReadRig(const fs::path& path) {
-  const YamlReader yaml(path);
+Rig ReadRig(const fs::path& path) { return ParseRig(detail::ReadTextFile(path, kMaxRigFileBytes), path.string()); }
+
+Rig ParseRig(const std::string& text, const std::string& name) {
+  if (text.size() > kMaxRigFileBytes) {
+    Fail(name, "file", fmt::format("{} bytes", text.size()), fmt::format("at most {} bytes", kMaxRigFileBytes));
+  }
+  const YamlReader yaml(text, name);
   const YAML::Node& root = yaml.root();
   yaml.CheckKeys(root, "", {"format", "base_frame", "cameras", "lidars", "extra"});
   const YAML::Node format = yaml.Required(root, "", "format");
@@ -390,10 +404,10 @@ Rig ReadRig(const fs::path& path) {
   }
   Rig rig;
   std::set<std::string> names;
-  ParseSensors(yaml, yaml.Required(root, "", "cameras"), "cameras", &names,
-               [&](const std::string& name, const YAML::Node& node) { rig.cameras.push_back(ParseCamera(yaml, name, node)); });
-  ParseSensors(yaml, yaml.Required(root, "", "lidars"), "lidars", &names,
-               [&](const std::string& name, const YAML::Node& node) { rig.lidars.push_back(ParseLidar(yaml, name, node)); });
+  ParseSensors(yaml, yaml.Required(root, "", "cameras"), "cameras", kMaxRigCameras, &names,
+               [&](const std::string& sensor, const YAML::Node& node) { rig.cameras.push_back(ParseCamera(yaml, sensor, node)); });
+  ParseSensors(yaml, yaml.Required(root, "", "lidars"), "lidars", kMaxRigLidars, &names,
+               [&](const std::string& sensor, const YAML::Node& node) { rig.lidars.push_back(ParseLidar(yaml, sensor, node)); });
   const YAML::Node base = yaml.Required(root, "", "base_frame");
   rig.base_frame = yaml.String(base, "base_frame");
   const CameraInfo* base_camera = rig.FindCamera(rig.base_frame);
@@ -422,8 +436,10 @@ void WriteRig(const fs::path& path, const Rig& rig, const YAML::Node& extra) {
 // ---- trajectory.csv --------------------------------------------------------------
 
 Trajectory ReadTrajectory(const fs::path& path) {
-  const std::string file = path.string();
-  const std::string text = detail::ReadTextFile(path, std::size_t{4} << 30);
+  return ParseTrajectory(detail::ReadTextFile(path, std::size_t{4} << 30), path.string());
+}
+
+Trajectory ParseTrajectory(const std::string& text, const std::string& file) {
   std::vector<TimeUs> times;
   std::vector<Eigen::Isometry3d> poses;
   std::size_t line_number = 0;
@@ -501,7 +517,11 @@ void WriteTrajectory(const fs::path& path, const Trajectory& trajectory) {
 // ---- ground_truth.yaml -----------------------------------------------------------
 
 GroundTruth ReadGroundTruth(const fs::path& path) {
-  const YamlReader yaml(path);
+  return ParseGroundTruth(detail::ReadTextFile(path, kMaxYamlFileBytes), path.string());
+}
+
+GroundTruth ParseGroundTruth(const std::string& text, const std::string& name) {
+  const YamlReader yaml(text, name);
   const YAML::Node& root = yaml.root();
   yaml.CheckKeys(root, "", {"format", "lidars", "cameras"});
   const YAML::Node format = yaml.Required(root, "", "format");
@@ -512,18 +532,18 @@ GroundTruth ReadGroundTruth(const fs::path& path) {
   const YAML::Node lidars = yaml.Required(root, "", "lidars");
   yaml.CheckUniqueKeys(lidars, "lidars");
   for (const auto& entry : lidars) {
-    const std::string name = entry.first.Scalar();
-    yaml.CheckKeys(entry.second, "lidars." + name, {"T_base_lidar"});
-    truth.T_base_lidar[name] = yaml.Transform(yaml.Required(entry.second, "lidars." + name, "T_base_lidar"),
-                                              "lidars." + name + ".T_base_lidar");
+    const std::string lidar = entry.first.Scalar();
+    yaml.CheckKeys(entry.second, "lidars." + lidar, {"T_base_lidar"});
+    truth.T_base_lidar[lidar] = yaml.Transform(yaml.Required(entry.second, "lidars." + lidar, "T_base_lidar"),
+                                               "lidars." + lidar + ".T_base_lidar");
   }
   if (const YAML::Node cameras = root["cameras"]; cameras.IsDefined() && !cameras.IsNull()) {
     yaml.CheckUniqueKeys(cameras, "cameras");
     for (const auto& entry : cameras) {
-      const std::string name = entry.first.Scalar();
-      yaml.CheckKeys(entry.second, "cameras." + name, {"T_base_camera"});
-      truth.T_base_camera[name] = yaml.Transform(yaml.Required(entry.second, "cameras." + name, "T_base_camera"),
-                                                 "cameras." + name + ".T_base_camera");
+      const std::string camera = entry.first.Scalar();
+      yaml.CheckKeys(entry.second, "cameras." + camera, {"T_base_camera"});
+      truth.T_base_camera[camera] = yaml.Transform(yaml.Required(entry.second, "cameras." + camera, "T_base_camera"),
+                                                   "cameras." + camera + ".T_base_camera");
     }
   }
   return truth;
@@ -718,15 +738,18 @@ std::size_t ScanRecordCount(const SensorFile& file) {
 
 LidarScan ReadScan(const SensorFile& file) {
   ScanRecordCount(file);  // checks the size before reading
-  const std::string bytes = ReadBinaryFile(file.path, kMaxDataFileBytes);
-  if (bytes.size() % sizeof(LidarPoint) != 0) {  // the file changed under us
-    Fail(file.path.string(), "file size", fmt::format("{} bytes", bytes.size()), "a multiple of 16 bytes");
+  return ParseScan(ReadBinaryFile(file.path, kMaxDataFileBytes), file.path.string(), file.t_us);
+}
+
+LidarScan ParseScan(const std::string& bytes, const std::string& name, TimeUs t_us) {
+  if (bytes.size() % sizeof(LidarPoint) != 0) {  // also when the file changed after ScanRecordCount
+    Fail(name, "file size", fmt::format("{} bytes", bytes.size()), "a multiple of 16 bytes");
   }
   const std::size_t records = bytes.size() / sizeof(LidarPoint);
   LidarScan scan;
-  scan.t_us = file.t_us;
+  scan.t_us = t_us;
   scan.points.resize(records);
-  std::memcpy(scan.points.data(), bytes.data(), bytes.size());
+  if (records > 0) std::memcpy(scan.points.data(), bytes.data(), bytes.size());  // data() may be null when empty
   const auto no_return = [](const LidarPoint& p) {
     return !(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z) && std::isfinite(p.reflectance));
   };
@@ -805,7 +828,11 @@ void WriteCalibrationResult(const fs::path& path, const CalibrationResult& resul
 }
 
 CalibrationResult ReadCalibrationResult(const fs::path& path) {
-  const YamlReader yaml(path);
+  return ParseCalibrationResult(detail::ReadTextFile(path, kMaxYamlFileBytes), path.string());
+}
+
+CalibrationResult ParseCalibrationResult(const std::string& text, const std::string& name) {
+  const YamlReader yaml(text, name);
   const YAML::Node& root = yaml.root();
   yaml.RequireMap(root, "");
   const YAML::Node format = yaml.Required(root, "", "format");
@@ -816,11 +843,11 @@ CalibrationResult ReadCalibrationResult(const fs::path& path) {
   const YAML::Node lidars = yaml.Required(root, "", "lidars");
   yaml.CheckUniqueKeys(lidars, "lidars");
   for (const auto& entry : lidars) {
-    const std::string name = entry.first.Scalar();
-    const std::string field = "lidars." + name;
+    const std::string lidar_name = entry.first.Scalar();
+    const std::string field = "lidars." + lidar_name;
     yaml.CheckKeys(entry.second, field, {"T_base_lidar", "sigma"});
     LidarCalibration lidar;
-    lidar.lidar = name;
+    lidar.lidar = lidar_name;
     lidar.T_base_lidar = yaml.Transform(yaml.Required(entry.second, field, "T_base_lidar"), field + ".T_base_lidar");
     const YAML::Node& lidar_node = entry.second;
     if (const YAML::Node sigma = lidar_node["sigma"]; sigma.IsDefined()) lidar.sigma = yaml.Sigma(sigma, field + ".sigma");
@@ -841,6 +868,9 @@ CalibrationResult ReadCalibrationResult(const fs::path& path) {
       pair.cost = cost.as<double>();  // may be .nan when a pair had no data
     } catch (const YAML::Exception&) {
       yaml.Fail(cost, field + ".cost", "found " + detail::Describe(cost), "a number");
+    }
+    if (std::isinf(pair.cost)) {
+      yaml.Fail(cost, field + ".cost", "found " + detail::Describe(cost), "a finite number, or .nan for a pair without data");
     }
     result.pairs.push_back(std::move(pair));
   }

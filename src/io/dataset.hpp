@@ -2,6 +2,7 @@
 // fully and throws InputError naming the file and the field.
 #pragma once
 
+#include <cstddef>
 #include <filesystem>
 #include <map>
 #include <optional>
@@ -48,6 +49,19 @@ void WriteTrajectory(const std::filesystem::path& path, const Trajectory& trajec
 GroundTruth ReadGroundTruth(const std::filesystem::path& path);
 void WriteGroundTruth(const std::filesystem::path& path, const GroundTruth& truth);
 
+// The readers above on a file's content already in memory (the Read*
+// functions read the file and call these); `name` stands for the file in
+// messages.
+Rig ParseRig(const std::string& text, const std::string& name);
+Trajectory ParseTrajectory(const std::string& text, const std::string& name);
+GroundTruth ParseGroundTruth(const std::string& text, const std::string& name);
+
+// Most sensors a rig.yaml may name, per kind: far above any real rig, low
+// enough that a corrupt or hostile file cannot make every later stage
+// (folder listing, pairs, costs) explode.
+inline constexpr std::size_t kMaxRigCameras = 64;
+inline constexpr std::size_t kMaxRigLidars = 64;
+
 // What ReadImage makes of a (colour) image: its grey level, or the excess
 // green 2G - R - B mapped from [-2, 2] to [0, 1]. Vegetation reflects the
 // lidar's near infrared strongly but is dark in grey; excess green shows it
@@ -72,6 +86,8 @@ LidarScan ReadScan(const SensorFile& file);
 // Records in a scan file (file size / 16) without reading it; InputError when
 // the size is not a multiple of 16.
 std::size_t ScanRecordCount(const SensorFile& file);
+// A scan file's bytes as read by ReadScan; `name` stands for the file in messages.
+LidarScan ParseScan(const std::string& bytes, const std::string& name, TimeUs t_us);
 void WriteScan(const std::filesystem::path& path, const std::vector<LidarPoint>& points);
 
 // Result file (FORMAT.md "Calibration result"), written atomically.
@@ -84,6 +100,7 @@ void WriteCalibrationResult(const std::filesystem::path& path, const Calibration
 // The YAML text WriteCalibrationResult writes (extra_keys may be null).
 std::string CalibrationResultToYaml(const CalibrationResult& result, const YAML::Node* extra_keys = nullptr);
 CalibrationResult ReadCalibrationResult(const std::filesystem::path& path);
+CalibrationResult ParseCalibrationResult(const std::string& text, const std::string& name);  // content in memory
 
 // Sensor names: [A-Za-z0-9_-]+.
 bool IsValidSensorName(const std::string& name);

@@ -65,8 +65,10 @@ struct KeyLine {
 
 class KeyValueFile {
  public:
-  explicit KeyValueFile(const fs::path& path) : file_(path.string()) {
-    const std::vector<std::string> lines = Lines(detail::ReadTextFile(path, 1 << 20));
+  explicit KeyValueFile(const fs::path& path) : KeyValueFile(detail::ReadTextFile(path, 1 << 20), path.string()) {}
+
+  KeyValueFile(const std::string& text, std::string name) : file_(std::move(name)) {
+    const std::vector<std::string> lines = Lines(text);
     for (std::size_t i = 0; i < lines.size(); ++i) {
       const int number = static_cast<int>(i) + 1;
       if (Trim(lines[i]).empty()) continue;
@@ -135,14 +137,8 @@ fs::path FindCalibrationFile(const fs::path& drive_dir, const char* name) {
        std::string(name) + " in the date folder above the drive (or in the drive folder)");
 }
 
-// A rigid [R | T] from "R:" (9) and "T:" (3) of calib_velo_to_cam.txt or calib_imu_to_velo.txt.
 Eigen::Isometry3d ReadRigidTransform(const fs::path& path, const std::string& what) {
-  const KeyValueFile file(path);
-  Eigen::Isometry3d transform = Eigen::Isometry3d::Identity();
-  transform.linear() = file.Rotation("R", "row-major rotation, " + what);
-  const std::vector<double> t = file.Numbers("T", 3, "translation in metres, " + what);
-  transform.translation() = Eigen::Vector3d(t[0], t[1], t[2]);
-  return transform;
+  return ParseKittiRigidTransform(detail::ReadTextFile(path, 1 << 20), path.string(), what);
 }
 
 // ---- sensor folders: timestamps.txt + data/<10 digits>.<ext> ------------------
@@ -172,30 +168,9 @@ SensorSeries ReadSensorSeries(const fs::path& drive_dir, const std::string& fold
   if (!fs::is_directory(data_dir, error)) Fail(data_dir.string(), "folder", "missing", layout);
 
   const std::string file = series.timestamps_file.string();
-  const std::vector<std::string> lines = Lines(detail::ReadTextFile(series.timestamps_file, kMaxTextBytes));
-  std::optional<std::size_t> previous;  // index of the last line with a time
-  std::size_t with_time = 0;
-  for (std::size_t i = 0; i < lines.size(); ++i) {
-    const std::string text = Trim(lines[i]);
-    if (text.empty()) {
-      series.times.push_back(std::nullopt);
-      continue;
-    }
-    const std::optional<TimeUs> t_us = ParseKittiTimestamp(text);
-    const std::string where = fmt::format("line {}", i + 1);
-    if (!t_us) {
-      Fail(file, where, "'" + Shorten(text) + "'",
-           "a time 'YYYY-MM-DD HH:MM:SS.fffffffff' (UTC, year 1970..2200) or an empty line for a lost frame");
-    }
-    if (previous && *t_us <= *series.times[*previous]) {
-      Fail(file, where,
-           fmt::format("time {} us is not after line {} ({} us)", *t_us, *previous + 1, *series.times[*previous]),
-           "strictly increasing times (microseconds)");
-    }
-    previous = i;
-    ++with_time;
-    series.times.push_back(t_us);
-  }
+  series.times = ParseKittiTimestamps(detail::ReadTextFile(series.timestamps_file, kMaxTextBytes), file);
+  const std::size_t with_time =
+      static_cast<std::size_t>(std::count_if(series.times.begin(), series.times.end(), [](const auto& t) { return t.has_value(); }));
 
   // Every line with a time has its data file, and there are no others.
   std::size_t files = 0;
@@ -204,7 +179,7 @@ SensorSeries ReadSensorSeries(const fs::path& drive_dir, const std::string& fold
   }
   if (files != with_time) {
     Fail(data_dir.string(), "data files",
-         fmt::format("{} {} files for {} timestamps ({} lines in {})", files, extension, with_time, lines.size(), file),
+         fmt::format("{} {} files for {} timestamps ({} lines in {})", files, extension, with_time, series.times.size(), file),
          "one data file per non-empty line of timestamps.txt");
   }
   for (std::size_t i = 0; i < series.times.size(); ++i) {
@@ -218,34 +193,9 @@ SensorSeries ReadSensorSeries(const fs::path& drive_dir, const std::string& fold
 
 // ---- OXTS -------------------------------------------------------------------------
 
-struct OxtsRecord {
-  double lat = 0, lon = 0, alt = 0;     // degrees, degrees, metres
-  double roll = 0, pitch = 0, yaw = 0;  // radians (yaw 0 = east, counter-clockwise)
-};
+using OxtsRecord = KittiOxtsRecord;
 
-OxtsRecord ReadOxts(const fs::path& path) {
-  static const char* const kNames[] = {"lat", "lon", "alt", "roll", "pitch", "yaw"};
-  const std::string file = path.string();
-  std::istringstream tokens(detail::ReadTextFile(path, 1 << 20));
-  std::vector<double> values;
-  for (std::string token; tokens >> token;) {
-    double value = 0;
-    const std::string field = values.size() < 6 ? fmt::format("value {} ({})", values.size() + 1, kNames[values.size()])
-                                                : fmt::format("value {}", values.size() + 1);
-    if (!ParseDouble(token, &value)) Fail(file, field, "'" + Shorten(token) + "'", "a finite number");
-    values.push_back(value);
-  }
-  if (values.size() != kOxtsValues) {
-    Fail(file, "record", fmt::format("{} numbers", values.size()),
-         fmt::format("{} numbers (lat lon alt roll pitch yaw ... of the KITTI OXTS format)", kOxtsValues));
-  }
-  OxtsRecord record{values[0], values[1], values[2], values[3], values[4], values[5]};
-  if (!(std::abs(record.lat) < 90.0))
-    Fail(file, "value 1 (lat)", fmt::format("{}", record.lat), "a latitude in (-90, 90) degrees");
-  if (!(std::abs(record.lon) <= 180.0))
-    Fail(file, "value 2 (lon)", fmt::format("{}", record.lon), "a longitude in [-180, 180] degrees");
-  return record;
-}
+OxtsRecord ReadOxts(const fs::path& path) { return ParseKittiOxts(detail::ReadTextFile(path, 1 << 20), path.string()); }
 
 // The devkit's conversion (convertOxtsToPose): Mercator with the scale of
 // latitude lat0 (degrees), rotation Rz(yaw) * Ry(pitch) * Rx(roll). Returns
@@ -263,6 +213,68 @@ Eigen::Isometry3d ImuPoseFromOxts(const OxtsRecord& record, double lat0) {
 std::string CameraName(int index) { return fmt::format("image_{:02d}", index); }
 
 }  // namespace
+
+// ---- the drive's text files, in memory ------------------------------------------------
+
+Eigen::Isometry3d ParseKittiRigidTransform(const std::string& text, const std::string& name, const std::string& what) {
+  const KeyValueFile file(text, name);
+  Eigen::Isometry3d transform = Eigen::Isometry3d::Identity();
+  transform.linear() = file.Rotation("R", "row-major rotation, " + what);
+  const std::vector<double> t = file.Numbers("T", 3, "translation in metres, " + what);
+  transform.translation() = Eigen::Vector3d(t[0], t[1], t[2]);
+  return transform;
+}
+
+KittiOxtsRecord ParseKittiOxts(const std::string& text, const std::string& file) {
+  static const char* const kNames[] = {"lat", "lon", "alt", "roll", "pitch", "yaw"};
+  std::istringstream tokens(text);
+  std::vector<double> values;
+
+
+  for (std::string token; tokens >> token;) {
+    double value = 0;
+    const std::string field = values.size() < 6 ? fmt::format("value {} ({})", values.size() + 1, kNames[values.size()])
+                                                : fmt::format("value {}", values.size() + 1);
+    if (!ParseDouble(token, &value)) Fail(file, field, "'" + Shorten(token) + "'", "a finite number");
+    values.push_back(value);
+  }
+  if (values.size() != kOxtsValues) {
+    Fail(file, "record", fmt::format("{} numbers", values.size()),
+         fmt::format("{} numbers (lat lon alt roll pitch yaw ... of the KITTI OXTS format)", kOxtsValues));
+  }
+  KittiOxtsRecord record{values[0], values[1], values[2], values[3], values[4], values[5]};
+  if (!(std::abs(record.lat) < 90.0))
+    Fail(file, "value 1 (lat)", fmt::format("{}", record.lat), "a latitude in (-90, 90) degrees");
+  if (!(std::abs(record.lon) <= 180.0))
+    Fail(file, "value 2 (lon)", fmt::format("{}", record.lon), "a longitude in [-180, 180] degrees");
+  return record;
+}
+
+std::vector<std::optional<TimeUs>> ParseKittiTimestamps(const std::string& text, const std::string& file) {
+  const std::vector<std::string> lines = Lines(text);
+  std::vector<std::optional<TimeUs>> times;
+  std::optional<std::size_t> previous;  // index of the last line with a time
+  for (std::size_t i = 0; i < lines.size(); ++i) {
+    const std::string line = Trim(lines[i]);
+    if (line.empty()) {
+      times.push_back(std::nullopt);
+      continue;
+    }
+    const std::optional<TimeUs> t_us = ParseKittiTimestamp(line);
+    const std::string where = fmt::format("line {}", i + 1);
+    if (!t_us) {
+      Fail(file, where, "'" + Shorten(line) + "'",
+           "a time 'YYYY-MM-DD HH:MM:SS.fffffffff' (UTC, year 1970..2200) or an empty line for a lost frame");
+    }
+    if (previous && *t_us <= *times[*previous]) {
+      Fail(file, where, fmt::format("time {} us is not after line {} ({} us)", *t_us, *previous + 1, *times[*previous]),
+           "strictly increasing times (microseconds)");
+    }
+    previous = i;
+    times.push_back(t_us);
+  }
+  return times;
+}
 
 // ---- timestamps ---------------------------------------------------------------------
 
@@ -317,9 +329,19 @@ KittiCalibration ReadKittiCalibration(const fs::path& drive_dir_in, const std::v
   const fs::path velo_to_cam = FindCalibrationFile(drive_dir, kVeloToCam);
   const fs::path imu_to_velo = FindCalibrationFile(drive_dir, kImuToVelo);
   calibration.directory = cam_to_cam.parent_path();
+  ParseKittiCamToCam(detail::ReadTextFile(cam_to_cam, 1 << 20), cam_to_cam.string(), cameras, &calibration);
+  calibration.T_cam0_velo = ReadRigidTransform(velo_to_cam, "velodyne to unrectified camera 0");
+  calibration.T_velo_imu = ReadRigidTransform(imu_to_velo, "IMU (OXTS) to velodyne");
+  return calibration;
+}
 
-  const KeyValueFile cams(cam_to_cam);
-  calibration.R_rect_00 = cams.Rotation("R_rect_00", "row-major rotation, unrectified to rectified camera 0");
+void ParseKittiCamToCam(const std::string& text, const std::string& name, const std::vector<int>& cameras,
+                        KittiCalibration* calibration) {
+  for (const int index : cameras) {
+    if (index < 0 || index > 3) throw std::invalid_argument(fmt::format("KITTI camera index {} is not 0..3", index));
+  }
+  const KeyValueFile cams(text, name);
+  calibration->R_rect_00 = cams.Rotation("R_rect_00", "row-major rotation, unrectified to rectified camera 0");
   for (const int index : cameras) {
     const std::string key = fmt::format("P_rect_{:02d}", index);
     const std::vector<double> p =
@@ -336,11 +358,8 @@ KittiCalibration ReadKittiCalibration(const fs::path& drive_dir_in, const std::v
            "left 3x3 block not of the form fx 0 cx; 0 fy cy; 0 0 1",
            "a rectified projection [K | K t] with K = [fx 0 cx; 0 fy cy; 0 0 1], fx, fy > 0");
     }
-    calibration.P_rect[static_cast<std::size_t>(index)] = matrix;
+    calibration->P_rect[static_cast<std::size_t>(index)] = matrix;
   }
-  calibration.T_cam0_velo = ReadRigidTransform(velo_to_cam, "velodyne to unrectified camera 0");
-  calibration.T_velo_imu = ReadRigidTransform(imu_to_velo, "IMU (OXTS) to velodyne");
-  return calibration;
 }
 
 bool KittiImportOptions::IsValid(std::string* why) const {

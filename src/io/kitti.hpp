@@ -53,6 +53,27 @@ struct KittiCalibration {
 // file, the line or key, what was found and what was expected.
 KittiCalibration ReadKittiCalibration(const std::filesystem::path& drive_dir, const std::vector<int>& cameras);
 
+// The parsers of a drive's text files, on a file's content already in memory
+// (the importer reads the files and calls these); `name` stands for the file
+// in messages. InputError as ReadKittiCalibration.
+// calib_cam_to_cam.txt: sets R_rect_00 and P_rect[i] for every index in cameras.
+void ParseKittiCamToCam(const std::string& text, const std::string& name, const std::vector<int>& cameras,
+                        KittiCalibration* calibration);
+// calib_velo_to_cam.txt or calib_imu_to_velo.txt: the rigid [R | T] of the
+// "R:" (9) and "T:" (3, metres) lines; `what` names the transform in messages.
+Eigen::Isometry3d ParseKittiRigidTransform(const std::string& text, const std::string& name, const std::string& what);
+
+// The first six of an OXTS record's 30 numbers (oxts/data/<frame>.txt).
+struct KittiOxtsRecord {
+  double lat = 0, lon = 0, alt = 0;     // degrees, degrees, metres
+  double roll = 0, pitch = 0, yaw = 0;  // radians (yaw 0 = east, counter-clockwise)
+};
+KittiOxtsRecord ParseKittiOxts(const std::string& text, const std::string& name);
+
+// A sensor's timestamps.txt: a time per line (ParseKittiTimestamp), strictly
+// increasing; nullopt for an empty line (a lost frame).
+std::vector<std::optional<TimeUs>> ParseKittiTimestamps(const std::string& text, const std::string& name);
+
 struct KittiImportOptions {
   std::vector<int> cameras;          // indices 0..3; empty: every image_0i folder present
   std::size_t first = 0;             // first frame (index into the drive's timestamps.txt files)

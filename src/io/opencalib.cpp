@@ -35,8 +35,10 @@ CameraModel OpenCalibCameraModel(const OpenCalibCalibration& calibration, int wi
 }
 
 OpenCalibCalibration ReadOpenCalibCalibration(const fs::path& calib_txt) {
-  const std::string file = calib_txt.string();
-  const std::string text = detail::ReadTextFile(calib_txt, 1 << 20);
+  return ParseOpenCalibCalibration(detail::ReadTextFile(calib_txt, 1 << 20), calib_txt.string());
+}
+
+OpenCalibCalibration ParseOpenCalibCalibration(const std::string& text, const std::string& file) {
   std::map<std::string, std::vector<double>> entries;
   std::istringstream lines(text);
   std::string line;

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <filesystem>
+#include <string>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -22,6 +23,8 @@ struct OpenCalibCalibration {
 };
 
 OpenCalibCalibration ReadOpenCalibCalibration(const std::filesystem::path& calib_txt);
+// The same on calib.txt's content in memory; `name` stands for the file in messages.
+OpenCalibCalibration ParseOpenCalibCalibration(const std::string& text, const std::string& name);
 
 // The radtan camera calib.txt describes, for an image of width x height pixels.
 CameraModel OpenCalibCameraModel(const OpenCalibCalibration& calibration, int width, int height);

@@ -148,6 +148,12 @@ PcdCloud ParsePcd(const std::string& bytes, const std::string& name) {
       points_claimed = number(1, std::size_t{1} << 40);
     } else if (key == "VIEWPOINT") {
       if (values != 7) fail(where, fmt::format("{} values", values), "7 numbers (tx ty tz qw qx qy qz)");
+      for (std::size_t i = 1; i <= values; ++i) {  // not used, but a corrupt header shows here too
+        double value = 0;
+        if (!detail::ParseWholeToken(tokens[i], &value) || !std::isfinite(value)) {
+          fail(where, fmt::format("'{}'", tokens[i]), "7 finite numbers (tx ty tz qw qx qy qz)");
+        }
+      }
     } else if (key == "DATA") {
       if (values != 1) fail(where, fmt::format("{} values", values), "ascii, binary or binary_compressed");
       encoding = std::string(tokens[1]);

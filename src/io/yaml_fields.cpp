@@ -1,9 +1,11 @@
 #include "io/yaml_fields.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <set>
 #include <system_error>
+#include <utility>
 
 #include <fmt/format.h>
 
@@ -45,8 +47,56 @@ std::string FormatNumber(double value) {
   return fmt::format("{}", value);
 }
 
-YamlReader::YamlReader(const fs::path& path) : file_(path.string()) {
-  const std::string text = ReadTextFile(path, 64u << 20);
+YamlReader::YamlReader(const fs::path& path) : YamlReader(ReadTextFile(path, 64u << 20), path.string()) {}
+
+namespace {
+
+// Offset of the first byte that does not belong to well-formed UTF-8 (no
+// overlong forms, surrogates or code points past U+10FFFF), or npos.
+std::size_t FirstInvalidUtf8(std::string_view text) {
+  std::size_t i = 0;
+  while (i < text.size()) {
+    const auto lead = static_cast<unsigned char>(text[i]);
+    if (lead < 0x80) {
+      ++i;
+      continue;
+    }
+    std::size_t length = 0;
+    unsigned char lowest = 0x80, highest = 0xBF;  // the range of the second byte
+    if (lead >= 0xC2 && lead <= 0xDF) {
+      length = 2;
+    } else if (lead >= 0xE0 && lead <= 0xEF) {
+      length = 3;
+      if (lead == 0xE0) lowest = 0xA0;   // overlong
+      if (lead == 0xED) highest = 0x9F;  // surrogates
+    } else if (lead >= 0xF0 && lead <= 0xF4) {
+      length = 4;
+      if (lead == 0xF0) lowest = 0x90;   // overlong
+      if (lead == 0xF4) highest = 0x8F;  // past U+10FFFF
+    } else {
+      return i;
+    }
+    if (length > text.size() - i) return i;
+    for (std::size_t k = 1; k < length; ++k) {
+      const auto next = static_cast<unsigned char>(text[i + k]);
+      if (next < (k == 1 ? lowest : 0x80) || next > (k == 1 ? highest : 0xBF)) return i;
+    }
+    i += length;
+  }
+  return std::string_view::npos;
+}
+
+}  // namespace
+
+YamlReader::YamlReader(const std::string& text, std::string name) : file_(std::move(name)) {
+  // YAML text is Unicode; yaml-cpp passes other bytes through unchecked, and
+  // its emitter would then write them differently from how they were read.
+  if (const std::size_t bad = FirstInvalidUtf8(text); bad != std::string_view::npos) {
+    const auto line = std::count(text.begin(), text.begin() + static_cast<std::ptrdiff_t>(bad), '\n') + 1;
+    detail::Fail(file_, fmt::format("line {}", line),
+                 fmt::format("byte {} (0x{:02X}) is not UTF-8", bad, static_cast<unsigned char>(text[bad])),
+                 "a UTF-8 text file");
+  }
   try {
     root_ = YAML::Load(text);
   } catch (const YAML::Exception& e) {

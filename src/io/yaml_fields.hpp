@@ -41,6 +41,8 @@ class YamlReader {
  public:
   // Loads and parses the file; a syntax error reports its line.
   explicit YamlReader(const std::filesystem::path& path);
+  // Parses YAML text already in memory; `name` stands for the file in messages.
+  YamlReader(const std::string& text, std::string name);
 
   const YAML::Node& root() const { return root_; }
   const std::string& file() const { return file_; }
