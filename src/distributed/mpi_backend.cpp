@@ -4,9 +4,13 @@
 
 #include <chrono>
 #include <cstring>
+#include <exception>
 #include <stdexcept>
+#include <thread>
 
 #include <tbb/parallel_for.h>
+
+#include "core/interrupt.hpp"
 
 namespace scenecal::distributed {
 namespace {
@@ -22,6 +26,34 @@ constexpr int kOutcomeDoubles = 16 + 2 + 4 + 1 + 1;
 
 void Check(int code, const char* what) {
   if (code != MPI_SUCCESS) throw std::runtime_error(std::string("MPI call failed: ") + what);
+}
+
+// Waits for a nonblocking collective, checking for an interruption every
+// millisecond: a blocking call would hold this rank for as long as the others
+// take to reach the collective (a batch of lower levels can take minutes).
+// Interrupted leaves the request pending: the caller then ends every rank.
+void WaitInterruptibly(MPI_Request* request, const char* what) {
+  for (;;) {
+    int done = 0;
+    Check(MPI_Test(request, &done, MPI_STATUS_IGNORE), what);
+    if (done) return;
+    ThrowIfInterrupted();
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+}
+
+// MPI_Bcast from rank 0 and MPI_Reduce (sum) to rank 0, waited for with
+// WaitInterruptibly. Every rank must use these (a nonblocking collective
+// does not match a blocking one).
+void Broadcast(double* data, int count, const char* what) {
+  MPI_Request request = MPI_REQUEST_NULL;
+  Check(MPI_Ibcast(data, count, MPI_DOUBLE, kRoot, MPI_COMM_WORLD, &request), what);
+  WaitInterruptibly(&request, what);
+}
+void SumToRoot(const double* data, double* sum, int count, const char* what) {
+  MPI_Request request = MPI_REQUEST_NULL;
+  Check(MPI_Ireduce(data, sum, count, MPI_DOUBLE, MPI_SUM, kRoot, MPI_COMM_WORLD, &request), what);
+  WaitInterruptibly(&request, what);
 }
 
 void PutTransform(const Eigen::Isometry3d& T, double* out) {
@@ -145,9 +177,8 @@ std::vector<double> SolveOwnedAndReduce(const std::vector<double>& encoded_tasks
     EncodeOutcome(outcome, outcomes.data() + static_cast<std::size_t>(i) * kOutcomeDoubles);
   });
   std::vector<double> merged(rank == kRoot ? outcomes.size() : 0);
-  Check(MPI_Reduce(outcomes.data(), rank == kRoot ? merged.data() : nullptr, static_cast<int>(outcomes.size()),
-                   MPI_DOUBLE, MPI_SUM, kRoot, MPI_COMM_WORLD),
-        "MPI_Reduce of lower-level outcomes");
+  SumToRoot(outcomes.data(), rank == kRoot ? merged.data() : nullptr, static_cast<int>(outcomes.size()),
+            "MPI_Reduce of lower-level outcomes");
   return merged;
 }
 
@@ -192,6 +223,10 @@ MpiLowerLevelBackend::MpiLowerLevelBackend(std::vector<PairObjective> local, Low
     : local_(std::move(local)), before_batch_(std::move(before_batch)) {}
 
 MpiLowerLevelBackend::~MpiLowerLevelBackend() {
+  // Unwinding from an error or an interruption: the other ranks may be inside
+  // another collective, which the end message would not match. The caller
+  // ends every rank instead (AbortAllRanks).
+  if (std::uncaught_exceptions() > 0) return;
   try {
     Finish();
   } catch (...) {
@@ -203,7 +238,7 @@ void MpiLowerLevelBackend::Finish() {
   if (finished_) return;
   finished_ = true;
   double header[3] = {kCommandFinish, 0.0, 0.0};
-  Check(MPI_Bcast(header, 3, MPI_DOUBLE, kRoot, MPI_COMM_WORLD), "MPI_Bcast of the end message");
+  Broadcast(header, 3, "MPI_Bcast of the end message");
 }
 
 std::vector<LowerLevelOutcome> MpiLowerLevelBackend::Solve(const std::vector<LowerLevelTask>& tasks,
@@ -212,11 +247,10 @@ std::vector<LowerLevelOutcome> MpiLowerLevelBackend::Solve(const std::vector<Low
   // Serving ranks get a deadline: how long rank 0 will still wait. Rank 0's
   // own callback decides for rank 0 (and records that the budget ran out).
   double header[3] = {kCommandSolve, static_cast<double>(task_count), -1.0};
-  Check(MPI_Bcast(header, 3, MPI_DOUBLE, kRoot, MPI_COMM_WORLD), "MPI_Bcast of a batch header");
+  Broadcast(header, 3, "MPI_Bcast of a batch header");
   std::vector<double> encoded(static_cast<std::size_t>(task_count) * kTaskDoubles);
   for (int i = 0; i < task_count; ++i) EncodeTask(tasks[static_cast<std::size_t>(i)], encoded.data() + static_cast<std::size_t>(i) * kTaskDoubles);
-  Check(MPI_Bcast(encoded.data(), static_cast<int>(encoded.size()), MPI_DOUBLE, kRoot, MPI_COMM_WORLD),
-        "MPI_Bcast of lower-level tasks");
+  Broadcast(encoded.data(), static_cast<int>(encoded.size()), "MPI_Bcast of lower-level tasks");
   const std::vector<double> merged = SolveOwnedAndReduce(encoded, task_count, local_, before_batch_, stop_requested);
   std::vector<LowerLevelOutcome> outcomes(tasks.size());
   for (int i = 0; i < task_count; ++i) outcomes[static_cast<std::size_t>(i)] = DecodeOutcome(merged.data() + static_cast<std::size_t>(i) * kOutcomeDoubles);
@@ -226,12 +260,11 @@ std::vector<LowerLevelOutcome> MpiLowerLevelBackend::Solve(const std::vector<Low
 void ServeLowerLevel(std::vector<PairObjective> local, const LowerLevelBatchHook& before_batch) {
   for (;;) {
     double header[3] = {0, 0, 0};
-    Check(MPI_Bcast(header, 3, MPI_DOUBLE, kRoot, MPI_COMM_WORLD), "MPI_Bcast of a batch header");
+    Broadcast(header, 3, "MPI_Bcast of a batch header");
     if (header[0] == kCommandFinish) return;
     const int task_count = static_cast<int>(header[1]);
     std::vector<double> encoded(static_cast<std::size_t>(task_count) * kTaskDoubles);
-    Check(MPI_Bcast(encoded.data(), static_cast<int>(encoded.size()), MPI_DOUBLE, kRoot, MPI_COMM_WORLD),
-          "MPI_Bcast of lower-level tasks");
+    Broadcast(encoded.data(), static_cast<int>(encoded.size()), "MPI_Bcast of lower-level tasks");
     SolveOwnedAndReduce(encoded, task_count, local, before_batch, {});
   }
 }
