@@ -256,6 +256,22 @@ TEST(ParserLimits, RigSensorCountsAreCapped) {
   }
 }
 
+// yaml-cpp stops at 2000 levels of nesting (no stack overflow); the message says so.
+TEST(ParserLimits, DeeplyNestedYamlIsRefusedWithAClearMessage) {
+  std::string maps;
+  for (int i = 0; i < 5000; ++i) maps += "{a: ";
+  maps += "1" + std::string(5000, '}');
+  for (const std::string& nested : {std::string(5000, '[') + std::string(5000, ']'), maps}) {
+    try {
+      io::ParseGroundTruth("format: " + nested + "\n", "ground_truth.yaml");
+      ADD_FAILURE() << "accepted";
+    } catch (const io::InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("ground_truth.yaml: line 1: lists or mappings nested"), std::string::npos)
+          << e.what();
+    }
+  }
+}
+
 TEST(ParserLimits, PcdClaimingAbsurdPointCountsIsRefusedInEveryEncoding) {
   const std::string header_start = "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n";
   const struct {

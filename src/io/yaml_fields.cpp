@@ -8,6 +8,7 @@
 #include <utility>
 
 #include <fmt/format.h>
+#include <yaml-cpp/depthguard.h>
 
 #include "io/error.hpp"
 
@@ -99,6 +100,9 @@ YamlReader::YamlReader(const std::string& text, std::string name) : file_(std::m
   }
   try {
     root_ = YAML::Load(text);
+  } catch (const YAML::DeepRecursion& e) {  // yaml-cpp's own message is just "bad file"
+    const std::string where = e.mark.is_null() ? std::string("YAML") : fmt::format("line {}", e.mark.line + 1);
+    detail::Fail(file_, where, fmt::format("lists or mappings nested {} deep", e.depth()), "YAML nested less deeply");
   } catch (const YAML::Exception& e) {
     const std::string where = e.mark.is_null() ? std::string("YAML") : fmt::format("line {}", e.mark.line + 1);
     detail::Fail(file_, where, "YAML syntax error: " + e.msg, "valid YAML");
