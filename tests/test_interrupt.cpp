@@ -309,6 +309,27 @@ TEST_F(InterruptCli, ImportKittiLeavesNoDataset) {
   EXPECT_TRUE(Listing(folder).empty()) << "no dataset and no staging folder";
 }
 
+// --time-budget: the optimisation stops with a result, and the uncertainty and
+// the basin check (seconds each) are skipped once the budget is spent.
+TEST_F(InterruptCli, TimeBudgetEndsWithAResult) {
+  const fs::path folder = Folder("budget");
+  const auto started = Clock::now();
+  ASSERT_EQ(std::system((std::string(SCENECAL_CLI_PATH) + " calibrate " + Dataset().string() +
+                         " --scheme alt --scenes 10 --threads 2 --time-budget 1 --output " +
+                         (folder / "result.yaml").string() + " >" + (Root() / "budget.log").string() + " 2>&1")
+                            .c_str()),
+            0)
+      << ReadLog(Root() / "budget.log");
+  const double wall_s = std::chrono::duration<double>(Clock::now() - started).count();
+  const std::string result = ReadFile(folder / "result.yaml");
+  EXPECT_NE(result.find("time budget of 1 s ran out"), std::string::npos) << result;
+  EXPECT_NE(result.find("uncertainty: \"skipped: time budget spent\""), std::string::npos) << result;
+  EXPECT_NE(result.find("basin_check: \"skipped: time budget spent\""), std::string::npos) << result;
+  // Start-up, loading and the swathes come before the budget: a few seconds on a loaded machine.
+  EXPECT_LT(wall_s, 1.0 + 10.0);
+  std::printf("calibrate --time-budget 1: %.1f s wall\n", wall_s);
+}
+
 // ---- the pieces, in process ---------------------------------------------------------
 
 TEST(InterruptFlag, StopsNelderMeadAndTbbLoops) {

@@ -277,7 +277,16 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
                     args.perturb_from_truth ? "truth" : "rig.yaml");
   }
   YAML::Node extra(YAML::NodeType::Map);
-  if (!args.no_uncertainty) {
+  // The budget counts from the command's start; the steps after the
+  // optimisation that it can skip are skipped once it is spent.
+  const auto budget_spent = [&] {
+    const double elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return args.time_budget_s > 0.0 && elapsed_s >= args.time_budget_s;
+  };
+  if (!args.no_uncertainty && budget_spent()) {
+    spdlog::warn("no uncertainty estimate: the time budget ({} s) is spent", args.time_budget_s);
+    result.settings["uncertainty"] = "skipped: time budget spent";
+  } else if (!args.no_uncertainty) {
     if (options.motion_correction) {
       spdlog::info("uncertainty: the frames' drift corrections are held as estimated at the answer; their own "
                    "freedom is not in it (with --motion-correction the error can be several times larger)");
@@ -285,8 +294,7 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
     extra["uncertainty"] = ReportUncertainty(input, options, &result);
   }
   if (!args.no_basin_check) {
-    const double elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    if (args.time_budget_s > 0.0 && elapsed_s >= args.time_budget_s) {
+    if (budget_spent()) {
       // The check runs the final stage six times per lidar: not within a spent budget.
       spdlog::warn("no basin check: the time budget ({} s) is spent", args.time_budget_s);
       result.settings["basin_check"] = "skipped: time budget spent";
@@ -430,7 +438,10 @@ CommandRunner AddCalibrateCommand(CLI::App& app) {
       ->check(kNonNegative)
       ->capture_default_str();
   command->add_option("--time-budget", args->time_budget_s,
-                      "Wall-clock budget of the optimisation in seconds; 0 = none. The best point so far is kept.")
+                      "Wall-clock budget of the optimisation in seconds; 0 = none. The optimisation stops when it "
+                      "runs out and keeps the best point so far; loading the data (and for --scheme alt building the "
+                      "swathes) comes before it. The uncertainty and the basin check are skipped once the command has "
+                      "run for longer than the budget; --report is written regardless")
       ->check(kNonNegative)
       ->capture_default_str();
   command->add_option("--max-iterations", args->max_iterations,
@@ -462,7 +473,8 @@ CommandRunner AddCalibrateCommand(CLI::App& app) {
   command->add_flag("--no-uncertainty", args->no_uncertainty,
                     "Skip the uncertainty estimate after the calibration (by default each lidar gets a local "
                     "1-sigma per parameter, or a warning naming the directions the data do not determine; ~130 "
-                    "cost evaluations: seconds for push-broom swathes, minutes for dense 3D sweeps)");
+                    "cost evaluations: seconds for push-broom swathes, minutes for dense 3D sweeps; skipped when --time-budget "
+                    "is spent by then)");
   command->add_flag("--no-basin-check", args->no_basin_check,
                     "Skip the basin check after the calibration (by default the joint cost is minimised again from "
                     "the answer turned +-1 deg about each base axis, and a warning says when those runs end apart: "
