@@ -306,6 +306,9 @@ TEST_F(InterruptCli, ImportKittiLeavesNoDataset) {
                        (folder / "imported").string()},
                       "copied", 0.0, SIGINT, Root() / "import.log");
   ExpectStopped(run, SIGINT, "import kitti");
+  // How far the copy had come (the whole takes seconds: the signal must come mid-copy).
+  const std::size_t copied = run.log.rfind("copied");
+  if (copied != std::string::npos) std::printf("  %s\n", run.log.substr(copied, run.log.find('\n', copied) - copied).c_str());
   EXPECT_TRUE(Listing(folder).empty()) << "no dataset and no staging folder";
 }
 
