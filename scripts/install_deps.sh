@@ -10,6 +10,8 @@ packages=(
   # DGP import: JSON scenes and .npz point clouds (zip). libzip's CMake package
   # config names its command-line tools, so find_package(libzip) needs them too.
   nlohmann-json3-dev libzip-dev zipcmp zipmerge ziptool
+  # Lidar odometry: Open3D's registration (19 packages; PCL would bring VTK, Qt and Boost, ~250).
+  libopen3d-dev
   libopenmpi-dev openmpi-bin
   libgtest-dev libgmock-dev libbenchmark-dev
   # The timing scripts (scripts/bench_*.sh): /usr/bin/time -v, Python 3 with PyYAML.

@@ -21,5 +21,6 @@ CommandRunner AddImportCommand(CLI::App& app);
 CommandRunner AddCalibrateCommand(CLI::App& app);
 CommandRunner AddExperimentCommand(CLI::App& app);
 CommandRunner AddProfileCommand(CLI::App& app);
+CommandRunner AddOdometryCommand(CLI::App& app);
 
 }  // namespace scenecal::cli

@@ -42,6 +42,7 @@ int main(int argc, char** argv) {
   add(AddCalibrateCommand(app));
   add(AddExperimentCommand(app));
   add(AddProfileCommand(app));
+  add(AddOdometryCommand(app));
 
   try {
     app.parse(argc, argv);

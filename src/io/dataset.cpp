@@ -898,4 +898,15 @@ CalibrationResult ParseCalibrationResult(const std::string& text, const std::str
   return result;
 }
 
+std::vector<SensorFile> ListLidarScans(const fs::path& root, const std::string& lidar) {
+  // The lidars folder may hold other lidars' folders: list them all, keep one.
+  std::set<std::string> lidars;
+  std::error_code error;
+  for (const fs::directory_entry& entry : fs::directory_iterator(root / "lidars", error)) {
+    lidars.insert(entry.path().filename().string());
+  }
+  lidars.insert(lidar);
+  return ListSensorFolders(root, "lidars", lidars, false, "lidar").at(lidar);
+}
+
 }  // namespace scenecal::io

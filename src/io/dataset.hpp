@@ -112,4 +112,10 @@ std::optional<TimeUs> ParseTimestamp(const std::string& text);
 void WriteDatasetSkeleton(const std::filesystem::path& root, const Rig& rig, const Trajectory& trajectory,
                           const std::optional<GroundTruth>& truth);
 
+// The scans of one lidar of a dataset (lidars/<lidar>/, sorted by time),
+// checked as OpenDataset checks them, without needing trajectory.csv (for
+// building one: `scenecal odometry`). InputError when the folder is missing,
+// empty or holds anything else.
+std::vector<SensorFile> ListLidarScans(const std::filesystem::path& root, const std::string& lidar);
+
 }  // namespace scenecal::io

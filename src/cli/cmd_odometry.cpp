@@ -1,0 +1,139 @@
+// scenecal odometry DATASET --lidar NAME: a trajectory from a 3D lidar's own
+// scans (scan-to-local-map ICP), for recordings without poses or with poor ones.
+#include <chrono>
+#include <filesystem>
+#include <optional>
+
+#include <spdlog/spdlog.h>
+
+#include "cli/commands.hpp"
+#include "cli/validators.hpp"
+#include "core/geometry.hpp"
+#include "io/dataset.hpp"
+#include "io/output_path.hpp"
+#include "odometry/lidar_odometry.hpp"
+
+namespace scenecal::cli {
+
+namespace fs = std::filesystem;
+
+CommandRunner AddOdometryCommand(CLI::App& app) {
+  struct Options {
+    std::string dataset;
+    std::string lidar;
+    std::string output;
+    bool force = false;
+    odometry::LidarOdometryOptions odometry;
+  };
+  auto options = std::make_shared<Options>();
+  CLI::App* command = app.add_subcommand(
+      "odometry",
+      "Estimate the vehicle's trajectory from a 3D lidar's scans (each scan registered to a local map of the\n"
+      "last keyframes by point-to-plane ICP with a robust kernel) and write it as trajectory.csv. The poses\n"
+      "are the base frame's, through rig.yaml's T_base_lidar (the current guess: an error in its rotation\n"
+      "turns the whole trajectory with it), at the scan times; world = the base frame at the first scan.\n"
+      "When the dataset already has a trajectory.csv, the odometry's drift against it is printed.");
+  command->add_option("dataset", options->dataset, "Dataset folder (rig.yaml and lidars/<lidar>/; trajectory.csv optional)")
+      ->required();
+  command->add_option("--lidar", options->lidar, "The 3d lidar whose scans are registered")->required();
+  command->add_option("-o,--output", options->output,
+                      "Trajectory file to write (default DATASET/trajectory.csv; replacing it needs --force)");
+  command->add_flag("--force", options->force, "Replace an existing trajectory file");
+  command->add_option("--voxel", options->odometry.voxel_m, "Down-sampling voxel for scans and map (m)")
+      ->check(kPositive)
+      ->capture_default_str();
+  command->add_option("--min-range", options->odometry.min_range_m, "Drop returns nearer than this (m; the vehicle)")
+      ->check(kNonNegative)
+      ->capture_default_str();
+  command->add_option("--max-range", options->odometry.max_range_m, "Drop returns beyond this (m)")
+      ->check(kPositive)
+      ->capture_default_str();
+  command->add_option("--keyframes", options->odometry.map_keyframes, "Keyframes in the local map")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  return [options] {
+    const fs::path root(options->dataset);
+    const Rig rig = io::ReadRig(root / "rig.yaml");
+    const LidarInfo* lidar = rig.FindLidar(options->lidar);
+    if (lidar == nullptr) {
+      std::string names;
+      for (const LidarInfo& l : rig.lidars) names += (names.empty() ? "" : ", ") + l.name;
+      throw io::InputError((root / "rig.yaml").string() + ": lidars: no lidar '" + options->lidar + "'; expected one of " +
+                           names);
+    }
+    if (lidar->kind != LidarKind::k3d) {
+      throw io::InputError((root / "rig.yaml").string() + ": lidars." + lidar->name +
+                           ".kind: 2d; expected a 3d lidar (a 2d scan line has nothing to register)");
+    }
+    std::string why;
+    if (!options->odometry.IsValid(&why)) throw io::InputError("odometry options: " + why);
+    const fs::path recorded = root / "trajectory.csv";
+    const fs::path output = options->output.empty() ? recorded : fs::path(options->output);
+    io::CheckOutputFile(output, "--output");
+    std::error_code error;
+    if (fs::exists(output, error) && !options->force) {
+      throw io::InputError(output.string() + ": --output: exists; expected a new file (--force replaces it)");
+    }
+    // The recorded trajectory, if any, to measure the odometry against (read
+    // before it may be replaced).
+    std::optional<Trajectory> reference;
+    if (fs::exists(recorded, error)) reference = io::ReadTrajectory(recorded);
+
+    const std::vector<io::SensorFile> files = io::ListLidarScans(root, lidar->name);
+    spdlog::info("lidar odometry of {} ({} scans): voxel {} m, range {}..{} m, {} keyframes in the map", lidar->name,
+                 files.size(), options->odometry.voxel_m, options->odometry.min_range_m,
+                 options->odometry.max_range_m, options->odometry.map_keyframes);
+    odometry::LidarOdometry estimator(options->odometry);
+    const auto start = std::chrono::steady_clock::now();
+    std::size_t next_report = 0;
+    for (std::size_t i = 0; i < files.size(); ++i) {
+      estimator.Add(io::ReadScan(files[i]));
+      if (i + 1 >= next_report || i + 1 == files.size()) {
+        const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        spdlog::info("registered {}/{} scans ({:.1f} s)", i + 1, files.size(), seconds);
+        next_report = i + 1 + std::max<std::size_t>(files.size() / 10, 1);
+      }
+    }
+
+    // Base poses: world = the base frame at the first scan.
+    const Eigen::Isometry3d& T_base_lidar = lidar->T_base_lidar;
+    std::vector<TimeUs> times;
+    std::vector<Eigen::Isometry3d> T_world_base;
+    std::size_t weak = 0;
+    double fitness_sum = 0.0;
+    for (const odometry::OdometryStep& step : estimator.steps()) {
+      times.push_back(step.t_us);
+      T_world_base.push_back(T_base_lidar * step.T_world_lidar * T_base_lidar.inverse());
+      weak += step.weak;
+      fitness_sum += step.fitness;
+    }
+    const Trajectory trajectory(times, T_world_base);
+    io::WriteTrajectory(output, trajectory);
+    spdlog::info("wrote {}: {} poses over {:.2f} m, mean fitness {:.3f}", output.string(), times.size(),
+                 trajectory.TotalDistance(), fitness_sum / static_cast<double>(times.size()));
+    if (weak > 0) {
+      spdlog::warn("{} of {} scans registered weakly (fewer than {:.0f} % of their points near the map): their poses "
+                   "follow the motion before them",
+                   weak, times.size(), 100.0 * options->odometry.min_fitness);
+    }
+    if (reference) {
+      const odometry::DriftStatistics drift = odometry::CompareWithReference(times, T_world_base, *reference, 100.0);
+      if (drift.compared >= 2) {
+        spdlog::info("against {} ({} poses, {:.1f} m): end error {:.3f} m, {:.3f} deg", recorded.string(),
+                     drift.compared, drift.distance_m, drift.end_translation_m, drift.end_rotation_deg);
+        // Per distance only over a drive long enough for the ratio to mean something.
+        if (drift.distance_m >= 10.0) {
+          spdlog::info("end error per distance: {:.2f} %, {:.4f} deg/m", 100.0 * drift.end_translation_m / drift.distance_m,
+                       drift.end_rotation_deg / drift.distance_m);
+        }
+        if (drift.segments > 0) {
+          spdlog::info("over {} segments of 100 m: translation drift {:.2f} %, rotation drift {:.4f} deg/m",
+                       drift.segments, drift.segment_translation_percent, drift.segment_rotation_deg_per_m);
+        }
+      }
+    }
+    return kExitSuccess;
+  };
+}
+
+}  // namespace scenecal::cli
