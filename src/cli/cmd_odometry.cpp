@@ -9,6 +9,7 @@
 #include "cli/commands.hpp"
 #include "cli/validators.hpp"
 #include "core/geometry.hpp"
+#include "core/interrupt.hpp"
 #include "io/dataset.hpp"
 #include "io/output_path.hpp"
 #include "odometry/lidar_odometry.hpp"
@@ -87,6 +88,7 @@ CommandRunner AddOdometryCommand(CLI::App& app) {
     const auto start = std::chrono::steady_clock::now();
     std::size_t next_report = 0;
     for (std::size_t i = 0; i < files.size(); ++i) {
+      ThrowIfInterrupted();  // a scan takes ~0.1 s: Ctrl-C stops here, before anything is written
       estimator.Add(io::ReadScan(files[i]));
       if (i + 1 >= next_report || i + 1 == files.size()) {
         const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
