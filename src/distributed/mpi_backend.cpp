@@ -238,7 +238,11 @@ void MpiLowerLevelBackend::Finish() {
   if (finished_) return;
   finished_ = true;
   double header[3] = {kCommandFinish, 0.0, 0.0};
-  Broadcast(header, 3, "MPI_Bcast of the end message");
+  // Waited for without the interrupt check: the serving ranks wait for just
+  // this message, and a request left pending would leave them waiting.
+  MPI_Request request = MPI_REQUEST_NULL;
+  Check(MPI_Ibcast(header, 3, MPI_DOUBLE, kRoot, MPI_COMM_WORLD, &request), "MPI_Bcast of the end message");
+  Check(MPI_Wait(&request, MPI_STATUS_IGNORE), "MPI_Bcast of the end message");
 }
 
 std::vector<LowerLevelOutcome> MpiLowerLevelBackend::Solve(const std::vector<LowerLevelTask>& tasks,
