@@ -486,6 +486,59 @@ TEST_F(KittiImport, LostFramesAreSkipped) {
   EXPECT_EQ(dataset.images.at("image_00").size(), 5u);
 }
 
+// Published snippets hold only the images and the velodyne: without
+// timestamps.txt every sensor's frame k is at k x 100 ms, without oxts/ the
+// trajectory is the caller's (lidar odometry in the CLI).
+TEST_F(KittiImport, SnippetWithoutOxtsAndTimestamps) {
+  fs::remove_all(drive_.drive_dir / "oxts");
+  for (const char* folder : {"image_00", "image_01", "image_02", "image_03", "velodyne_points"}) {
+    ASSERT_TRUE(fs::remove(drive_.drive_dir / folder / "timestamps.txt"));
+  }
+  ASSERT_TRUE(fs::remove(drive_.drive_dir / "velodyne_points" / "data" / "0000000002.bin"));  // a lost scan
+  // Without a way to make the trajectory, the drive is refused naming oxts/.
+  try {
+    io::ImportKitti(drive_.drive_dir, temp_.path() / "refused", {});
+    ADD_FAILURE() << "accepted without oxts/";
+  } catch (const io::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("oxts"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(fs::exists(temp_.path() / "refused"));
+
+  io::KittiImportOptions options;
+  std::vector<TimeUs> scan_times_seen;
+  options.trajectory_from_scans = [&](const std::vector<io::SensorFile>& scans, const Eigen::Isometry3d& T_base_velo) {
+    EXPECT_LT((T_base_velo.matrix() - ExpectedCam0RectFromVelo(drive_)).cwiseAbs().maxCoeff(), 1e-5);
+    std::vector<Eigen::Isometry3d> poses;
+    for (const io::SensorFile& scan : scans) {
+      scan_times_seen.push_back(scan.t_us);
+      Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+      pose.translation().z() = 1e-6 * static_cast<double>(scan.t_us);  // 1 m/s forward
+      poses.push_back(pose);
+    }
+    std::vector<TimeUs> times = scan_times_seen;
+    return Trajectory(times, poses);
+  };
+  const io::KittiImportSummary summary = io::ImportKitti(drive_.drive_dir, temp_.path() / "out", options);
+  EXPECT_TRUE(summary.trajectory_from_scans);
+  EXPECT_EQ(summary.without_timestamps.size(), 5u);
+  EXPECT_EQ(summary.lost, 1u);
+  EXPECT_EQ(scan_times_seen, (std::vector<TimeUs>{0, 100'000, 300'000, 400'000}));
+  const io::Dataset dataset = io::OpenDataset(temp_.path() / "out");
+  ASSERT_EQ(dataset.images.at("image_02").size(), 5u);
+  for (std::size_t k = 0; k < 5; ++k) EXPECT_EQ(dataset.images.at("image_02")[k].t_us, static_cast<TimeUs>(k) * 100'000);
+  ASSERT_EQ(dataset.trajectory.size(), 4u);
+  EXPECT_NEAR(dataset.trajectory.poses().back().translation().z(), 0.4, 1e-12);
+
+  // The command line makes the trajectory by lidar odometry and says so.
+  const CliRun run = RunCli("import kitti '" + drive_.drive_dir.string() + "' --output '" +
+                                (temp_.path() / "cli").string() + "'",
+                            temp_.path());
+  EXPECT_EQ(run.exit_code, 0) << run.stderr_text;
+  EXPECT_NE(run.stderr_text.find("lidar odometry"), std::string::npos) << run.stderr_text;
+  EXPECT_NE(run.stderr_text.find("10 Hz"), std::string::npos) << run.stderr_text;
+  EXPECT_EQ(io::OpenDataset(temp_.path() / "cli").trajectory.size(), 4u);
+}
+
 // ---- bad input ---------------------------------------------------------------------
 
 struct BadCase {

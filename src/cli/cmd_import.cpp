@@ -11,10 +11,12 @@
 
 #include "cli/commands.hpp"
 #include "cli/validators.hpp"
+#include "core/interrupt.hpp"
 #include "io/dgp.hpp"
 #include "io/kitti.hpp"
 #include "io/opencalib.hpp"
 #include "io/output_path.hpp"
+#include "odometry/lidar_odometry.hpp"
 
 namespace scenecal::cli {
 
@@ -87,6 +89,8 @@ CommandRunner AddImportCommand(CLI::App& app) {
       "    initial guess and as ground_truth.yaml: KITTI's reference, not exact truth), trajectory.csv of the\n"
       "    base frame from the OXTS records, images and scans copied unchanged and named by their time (us\n"
       "    since the Unix epoch, timestamps read as UTC). An empty timestamps.txt line (lost frame) is skipped.\n"
+      "    Snippets without oxts/ get their trajectory from lidar odometry of the velodyne scans, and without\n"
+      "    timestamps.txt every sensor's frame k is taken at k x 100 ms (10 Hz); the log warns of both.\n"
       "  dgp SCENE: a scene of TRI's DGP format (scene_<hash>.json, calibration/<key>.json, rgb/<camera>/,\n"
       "    point_cloud/<lidar>/*.npz). Writes every camera (or --cameras) with the calibration's intrinsics\n"
       "    and its extrinsics as the known inter-camera transforms (base frame --base-camera, default the first\n"
@@ -179,6 +183,25 @@ CommandRunner AddImportCommand(CLI::App& app) {
     if (command->count("--count") > 0) kitti.count = options->count;
     kitti.overwrite = options->force;
     kitti.progress = ProgressLogger("copied");
+    // Snippets without oxts/: the trajectory from the velodyne by lidar odometry.
+    kitti.trajectory_from_scans = [](const std::vector<io::SensorFile>& scans, const Eigen::Isometry3d& T_base_velo) {
+      spdlog::warn("no oxts/: the trajectory comes from lidar odometry of the {} velodyne scans (scenecal odometry "
+                   "measures such a trajectory against a recorded one)",
+                   scans.size());
+      odometry::LidarOdometry estimator({});
+      std::vector<TimeUs> times;
+      std::vector<Eigen::Isometry3d> T_world_base;
+      std::size_t weak = 0;
+      for (const io::SensorFile& file : scans) {
+        ThrowIfInterrupted();
+        const odometry::OdometryStep& step = estimator.Add(io::ReadScan(file));
+        times.push_back(step.t_us);
+        T_world_base.push_back(T_base_velo * step.T_world_lidar * T_base_velo.inverse());
+        weak += step.weak;
+      }
+      if (weak > 0) spdlog::warn("lidar odometry: {} of {} scans registered weakly", weak, scans.size());
+      return Trajectory(times, T_world_base);
+    };
     spdlog::info("reading and checking the KITTI drive {}", options->source);
     const io::KittiImportSummary summary = io::ImportKitti(options->source, options->output, kitti);
     std::string names;
@@ -188,6 +211,10 @@ CommandRunner AddImportCommand(CLI::App& app) {
         "{} trajectory rows; calibration from {}",
         options->source, summary.dataset.string(), summary.first_frame, summary.first_frame + summary.frames - 1, names,
         summary.base_frame, summary.images, summary.scans, summary.poses, summary.calibration_dir.string());
+    if (!summary.without_timestamps.empty()) {
+      spdlog::warn("no timestamps.txt in {}: every sensor's frame k taken at k x 100 ms (KITTI's nominal 10 Hz)",
+                   fmt::join(summary.without_timestamps, ", "));
+    }
     if (summary.lost > 0) {
       spdlog::warn("{} sensor frames in the range had no data (empty timestamps.txt lines) and were skipped",
                    summary.lost);

@@ -10,6 +10,7 @@
 #include <system_error>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <yaml-cpp/yaml.h>
 
 #include "core/geometry.hpp"
@@ -32,6 +33,9 @@ constexpr const char* kLidarName = "velodyne";
 constexpr std::size_t kOxtsValues = 30;     // lat lon alt roll pitch yaw vn ve vf vl vu ax ... (devkit dataformat.txt)
 constexpr double kEarthRadius = 6378137.0;  // m, the devkit's Mercator sphere (WGS84 equatorial radius)
 constexpr std::size_t kMaxTextBytes = 64u << 20;
+// Without timestamps.txt: frame k at k x 100 ms (KITTI's nominal 10 Hz).
+constexpr TimeUs kSyntheticFramePeriodUs = 100'000;
+constexpr std::size_t kMaxFramesWithoutTimestamps = 10'000'000;
 
 std::string Trim(std::string_view text) {
   const std::size_t begin = text.find_first_not_of(" \t\r\n");
@@ -149,6 +153,7 @@ struct SensorSeries {
   fs::path directory;     // drive/folder
   fs::path timestamps_file;
   std::vector<std::optional<TimeUs>> times;  // per frame; nullopt: an empty line (data lost)
+  bool without_timestamps = false;            // no timestamps.txt: times by frame index at 10 Hz
 
   fs::path DataFile(std::size_t frame) const { return directory / "data" / fmt::format("{:010d}{}", frame, extension); }
 };
@@ -168,6 +173,23 @@ SensorSeries ReadSensorSeries(const fs::path& drive_dir, const std::string& fold
   if (!fs::is_directory(data_dir, error)) Fail(data_dir.string(), "folder", "missing", layout);
 
   const std::string file = series.timestamps_file.string();
+  if (!fs::exists(series.timestamps_file, error)) {
+    // Frames by the data files' indices, at KITTI's nominal 10 Hz.
+    series.without_timestamps = true;
+    for (const fs::directory_entry& entry : fs::directory_iterator(data_dir)) {
+      ThrowIfInterrupted();
+      const std::string stem = entry.path().stem().string();
+      std::size_t index = 0;
+      if (!entry.is_regular_file(error) || entry.path().extension() != extension || stem.size() != 10 ||
+          !detail::ParseWholeToken(stem, &index) || index > kMaxFramesWithoutTimestamps) {
+        Fail(entry.path().string(), "data file", "'" + entry.path().filename().string() + "'",
+             fmt::format("data files named by frame index, 0000000000{} ... (no timestamps.txt)", extension));
+      }
+      if (index >= series.times.size()) series.times.resize(index + 1);
+      series.times[index] = static_cast<TimeUs>(index) * kSyntheticFramePeriodUs;
+    }
+    return series;
+  }
   series.times = ParseKittiTimestamps(detail::ReadTextFile(series.timestamps_file, kMaxTextBytes), file);
   const std::size_t with_time =
       static_cast<std::size_t>(std::count_if(series.times.begin(), series.times.end(), [](const auto& t) { return t.has_value(); }));
@@ -412,26 +434,49 @@ KittiImportSummary ImportKitti(const fs::path& drive_dir_in, const fs::path& out
   std::sort(cameras.begin(), cameras.end());
 
   // Everything is read and checked before anything is written.
+  KittiImportSummary summary;
   const KittiCalibration calibration = ReadKittiCalibration(drive_dir, cameras);
-  const SensorSeries oxts = ReadSensorSeries(drive_dir, "oxts", ".txt", "OXTS GPS/IMU records");
-  const SensorSeries velodyne = ReadSensorSeries(drive_dir, "velodyne_points", ".bin", "velodyne scans");
+  // Without oxts/ the trajectory comes from the scans (options.trajectory_from_scans).
+  const bool have_oxts = fs::exists(drive_dir / "oxts", error);
+  if (!have_oxts && !options.trajectory_from_scans) {
+    Fail((drive_dir / "oxts").string(), "folder", "missing", "oxts/ with the GPS/IMU records (the trajectory)");
+  }
+  std::optional<SensorSeries> oxts;
+  if (have_oxts) oxts = ReadSensorSeries(drive_dir, "oxts", ".txt", "OXTS GPS/IMU records");
+  SensorSeries velodyne = ReadSensorSeries(drive_dir, "velodyne_points", ".bin", "velodyne scans");
   std::vector<SensorSeries> images;
   for (const int index : cameras) {
     images.push_back(ReadSensorSeries(drive_dir, CameraName(index), ".png", "rectified PNG images"));
   }
+  std::vector<SensorSeries*> all{&velodyne};
+  if (oxts) all.push_back(&*oxts);
+  for (SensorSeries& camera : images) all.push_back(&camera);
+  // One clock for all: if any folder lacks timestamps.txt, every sensor takes
+  // its frame index at 10 Hz (a lost frame, an empty line, stays lost).
+  const bool synthetic_times =
+      std::any_of(all.begin(), all.end(), [](const SensorSeries* series) { return series->without_timestamps; });
+  for (SensorSeries* series : all) {
+    if (series->without_timestamps) summary.without_timestamps.push_back(series->folder);
+    if (!synthetic_times) continue;
+    for (std::size_t k = 0; k < series->times.size(); ++k) {
+      if (series->times[k]) series->times[k] = static_cast<TimeUs>(k) * kSyntheticFramePeriodUs;
+    }
+  }
   // A synced drive numbers the frames of every sensor alike (a lost frame
-  // keeps its empty line), so the line counts agree.
-  const std::size_t frames = oxts.times.size();
+  // keeps its empty line), so the line counts agree. Without timestamps.txt a
+  // folder's count is its highest frame index (a lost last frame cannot show).
+  const SensorSeries& reference = oxts ? *oxts : velodyne;
+  const std::size_t frames = reference.times.size();
   if (frames == 0)
-    Fail(oxts.timestamps_file.string(), "frames", "none (empty file)", "at least one frame: an empty drive");
-  std::vector<const SensorSeries*> others{&velodyne};
-  for (const SensorSeries& camera : images) others.push_back(&camera);
-  for (const SensorSeries* series : others) {
-    if (series->times.size() != frames) {
+    Fail(reference.timestamps_file.string(), "frames", "none (empty file)", "at least one frame: an empty drive");
+  for (SensorSeries* series : all) {
+    const bool may_be_short = series->without_timestamps && series->times.size() < frames;
+    if (series->times.size() != frames && !may_be_short) {
       Fail(series->timestamps_file.string(), "lines",
-           fmt::format("{} lines, but {} has {}", series->times.size(), oxts.timestamps_file.string(), frames),
+           fmt::format("{} lines, but {} has {}", series->times.size(), reference.timestamps_file.string(), frames),
            "as many lines as every other sensor of the synced drive (one per frame)");
     }
+    series->times.resize(frames);
   }
   const std::size_t first = options.first;
   const std::size_t count = options.count.value_or(first < frames ? frames - first : 0);
@@ -442,7 +487,6 @@ KittiImportSummary ImportKitti(const fs::path& drive_dir_in, const fs::path& out
   }
   const std::size_t end = first + count;  // one past the last frame imported
 
-  KittiImportSummary summary;
   summary.first_frame = first;
   summary.frames = count;
   summary.calibration_dir = calibration.directory;
@@ -529,38 +573,50 @@ KittiImportSummary ImportKitti(const fs::path& drive_dir_in, const fs::path& out
   }
   for (const SensorFile& file : scan_files) ScanRecordCount(file);  // size a multiple of 16
 
-  // Trajectory: the range plus one neighbouring record on each side.
-  const std::optional<std::size_t> first_record = [&]() -> std::optional<std::size_t> {
-    for (std::size_t frame = 0; frame < frames; ++frame) {
-      if (oxts.times[frame]) return frame;
-    }
-    return std::nullopt;
-  }();
-  if (!first_record) Fail(oxts.timestamps_file.string(), "frames", "no line with a time", "at least one OXTS record");
-  const double lat0 = ReadOxts(oxts.DataFile(*first_record)).lat;  // the devkit's scale: the drive's first record
   std::vector<TimeUs> pose_times;
-  std::vector<Eigen::Isometry3d> T_world_imu;
-  const std::size_t from = first > 0 ? first - 1 : 0;
-  const std::size_t to = std::min(end + 1, frames);
-  for (std::size_t frame = from; frame < to; ++frame) {
-    if (!oxts.times[frame]) {
-      if (frame >= first && frame < end) ++summary.lost;
-      continue;
-    }
-    pose_times.push_back(*oxts.times[frame]);
-    T_world_imu.push_back(ImuPoseFromOxts(ReadOxts(oxts.DataFile(frame)), lat0));
-  }
-  if (pose_times.empty()) {
-    Fail(oxts.timestamps_file.string(), "frames", fmt::format("no OXTS record in frames {}..{}", from, to - 1),
-         "at least one OXTS record in the range");
-  }
-  // Mercator coordinates are ~1e6 m: move the origin to the first record so
-  // the numbers in trajectory.csv stay small (the rotation is untouched).
-  const Eigen::Vector3d origin = T_world_imu.front().translation();
   std::vector<Eigen::Isometry3d> T_world_base;
-  for (Eigen::Isometry3d pose : T_world_imu) {
-    pose.translation() -= origin;
-    T_world_base.push_back(pose * T_imu_base);
+  if (oxts) {
+    // Trajectory: the range plus one neighbouring record on each side.
+    const std::optional<std::size_t> first_record = [&]() -> std::optional<std::size_t> {
+      for (std::size_t frame = 0; frame < frames; ++frame) {
+        if (oxts->times[frame]) return frame;
+      }
+      return std::nullopt;
+    }();
+    if (!first_record) Fail(oxts->timestamps_file.string(), "frames", "no line with a time", "at least one OXTS record");
+    const double lat0 = ReadOxts(oxts->DataFile(*first_record)).lat;  // the devkit's scale: the drive's first record
+    std::vector<Eigen::Isometry3d> T_world_imu;
+    const std::size_t from = first > 0 ? first - 1 : 0;
+    const std::size_t to = std::min(end + 1, frames);
+    for (std::size_t frame = from; frame < to; ++frame) {
+      if (!oxts->times[frame]) {
+        if (frame >= first && frame < end) ++summary.lost;
+        continue;
+      }
+      pose_times.push_back(*oxts->times[frame]);
+      T_world_imu.push_back(ImuPoseFromOxts(ReadOxts(oxts->DataFile(frame)), lat0));
+    }
+    if (pose_times.empty()) {
+      Fail(oxts->timestamps_file.string(), "frames", fmt::format("no OXTS record in frames {}..{}", from, to - 1),
+           "at least one OXTS record in the range");
+    }
+    // Mercator coordinates are ~1e6 m: move the origin to the first record so
+    // the numbers in trajectory.csv stay small (the rotation is untouched).
+    const Eigen::Vector3d origin = T_world_imu.front().translation();
+    for (Eigen::Isometry3d pose : T_world_imu) {
+      pose.translation() -= origin;
+      T_world_base.push_back(pose * T_imu_base);
+    }
+  } else {
+    // No GPS/IMU: the caller's trajectory from the scans (lidar odometry).
+    const Trajectory from_scans = options.trajectory_from_scans(scan_files, T_base_velo);
+    if (from_scans.size() < 2) {
+      Fail((drive_dir / "velodyne_points").string(), "trajectory", "none could be made from the scans",
+           "a trajectory from the velodyne scans (no oxts/)");
+    }
+    pose_times = from_scans.times_us();
+    T_world_base = from_scans.poses();
+    summary.trajectory_from_scans = true;
   }
 
   std::size_t total = scan_files.size();
@@ -578,8 +634,13 @@ KittiImportSummary ImportKitti(const fs::path& drive_dir_in, const fs::path& out
   extra["cameras"] =
       "rectified KITTI cameras: pinhole from P_rect_0i, T_base_camera from P_rect_0i's last column (translation only)";
   extra["trajectory"] =
-      "OXTS poses by the devkit's Mercator conversion (scale from the drive's first record), world x east, y north, "
-      "z up, origin at the first written record";
+      oxts ? "OXTS poses by the devkit's Mercator conversion (scale from the drive's first record), world x east, "
+             "y north, z up, origin at the first written record"
+           : "no oxts/: estimated from the velodyne scans (lidar odometry), world = the base frame at the first scan";
+  if (synthetic_times) {
+    extra["times"] = "no timestamps.txt in " + fmt::format("{}", fmt::join(summary.without_timestamps, ", ")) +
+                     ": frame k at k x 100 ms (10 Hz) for every sensor";
+  }
   extra["ground_truth"] =
       "ground_truth.yaml holds KITTI's own reference extrinsic ([R_rect_00 | 0] * calib_velo_to_cam), found with "
       "targets; a reference, not exact truth";

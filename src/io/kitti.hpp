@@ -22,6 +22,7 @@
 #include <Eigen/Geometry>
 
 #include "core/trajectory.hpp"
+#include "io/dataset.hpp"
 #include "io/error.hpp"
 
 namespace scenecal::io {
@@ -82,6 +83,12 @@ struct KittiImportOptions {
   // Called after each image or scan copied (done, total); may be empty. For
   // progress reports: the io layer does not log.
   std::function<void(std::size_t done, std::size_t total)> progress;
+  // For drives without oxts/: the base frame's trajectory from the imported
+  // scans (in time order) and the velodyne's extrinsic T_base_velo, e.g. by
+  // lidar odometry (the io layer has none of its own). Empty: such a drive is
+  // refused.
+  std::function<Trajectory(const std::vector<SensorFile>& scans, const Eigen::Isometry3d& T_base_velo)>
+      trajectory_from_scans;
 
   bool IsValid(std::string* why = nullptr) const;
 };
@@ -97,6 +104,10 @@ struct KittiImportSummary {
   std::size_t scans = 0;   // scan files written
   std::size_t poses = 0;   // trajectory rows
   std::size_t lost = 0;    // sensor frames in the range with an empty timestamp line (KITTI data loss)
+  // Folders without timestamps.txt: every sensor then takes its frame index
+  // at 10 Hz (frame k at k x 100000 us), KITTI's nominal rate.
+  std::vector<std::string> without_timestamps;
+  bool trajectory_from_scans = false;  // no oxts/: options.trajectory_from_scans made trajectory.csv
 };
 
 // Converts the drive to a dataset at output (a temporary folder beside it,
@@ -120,6 +131,10 @@ struct KittiImportSummary {
 //   drive has it), so images and scans at the range's ends have a pose.
 // - A frame whose timestamps.txt line is empty (KITTI's lost data) has no
 //   data file and is skipped for that sensor (counted in `lost`).
+// - Published snippets often hold only image_0x/ and velodyne_points/: a
+//   folder without timestamps.txt gives every sensor 10 Hz frame times (its
+//   data files numbered by frame; a gap is a lost frame), and without oxts/
+//   the trajectory comes from options.trajectory_from_scans (summary says so).
 KittiImportSummary ImportKitti(const std::filesystem::path& drive_dir, const std::filesystem::path& output,
                                const KittiImportOptions& options);
 
