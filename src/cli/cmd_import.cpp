@@ -10,6 +10,7 @@
 #include <spdlog/spdlog.h>
 
 #include "cli/commands.hpp"
+#include "cli/odometry_plugin.hpp"
 #include "cli/validators.hpp"
 #include "core/interrupt.hpp"
 #include "io/dgp.hpp"
@@ -188,13 +189,17 @@ CommandRunner AddImportCommand(CLI::App& app) {
       spdlog::warn("no oxts/: the trajectory comes from lidar odometry of the {} velodyne scans (scenecal odometry "
                    "measures such a trajectory against a recorded one)",
                    scans.size());
-      odometry::LidarOdometry estimator({});
+      std::size_t handed = 0;
+      const std::vector<odometry::OdometryStep> steps = LoadOdometryPlugin()({}, [&](LidarScan* scan) {
+        if (handed == scans.size()) return false;
+        ThrowIfInterrupted();
+        *scan = io::ReadScan(scans[handed++]);
+        return true;
+      });
       std::vector<TimeUs> times;
       std::vector<Eigen::Isometry3d> T_world_base;
       std::size_t weak = 0;
-      for (const io::SensorFile& file : scans) {
-        ThrowIfInterrupted();
-        const odometry::OdometryStep& step = estimator.Add(io::ReadScan(file));
+      for (const odometry::OdometryStep& step : steps) {
         times.push_back(step.t_us);
         T_world_base.push_back(T_base_velo * step.T_world_lidar * T_base_velo.inverse());
         weak += step.weak;

@@ -12,6 +12,7 @@
 #include "core/interrupt.hpp"
 #include "io/dataset.hpp"
 #include "io/output_path.hpp"
+#include "cli/odometry_plugin.hpp"
 #include "odometry/lidar_odometry.hpp"
 
 namespace scenecal::cli {
@@ -84,18 +85,21 @@ CommandRunner AddOdometryCommand(CLI::App& app) {
     spdlog::info("lidar odometry of {} ({} scans): voxel {} m, range {}..{} m, {} keyframes in the map", lidar->name,
                  files.size(), options->odometry.voxel_m, options->odometry.min_range_m,
                  options->odometry.max_range_m, options->odometry.map_keyframes);
-    odometry::LidarOdometry estimator(options->odometry);
+    const odometry::RunLidarOdometryFn run_odometry = LoadOdometryPlugin();
     const auto start = std::chrono::steady_clock::now();
-    std::size_t next_report = 0;
-    for (std::size_t i = 0; i < files.size(); ++i) {
-      ThrowIfInterrupted();  // a scan takes ~0.1 s: Ctrl-C stops here, before anything is written
-      estimator.Add(io::ReadScan(files[i]));
-      if (i + 1 >= next_report || i + 1 == files.size()) {
+    std::size_t handed = 0, next_report = 0;
+    const std::vector<odometry::OdometryStep> steps = run_odometry(options->odometry, [&](LidarScan* scan) {
+      // Asked for scan i once scans 0..i-1 are registered.
+      if (handed >= next_report || handed == files.size()) {
         const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-        spdlog::info("registered {}/{} scans ({:.1f} s)", i + 1, files.size(), seconds);
-        next_report = i + 1 + std::max<std::size_t>(files.size() / 10, 1);
+        spdlog::info("registered {}/{} scans ({:.1f} s)", handed, files.size(), seconds);
+        next_report = handed + std::max<std::size_t>(files.size() / 10, 1);
       }
-    }
+      if (handed == files.size()) return false;
+      ThrowIfInterrupted();  // a scan takes ~0.1 s: Ctrl-C stops here, before anything is written
+      *scan = io::ReadScan(files[handed++]);
+      return true;
+    });
 
     // Base poses: world = the base frame at the first scan.
     const Eigen::Isometry3d& T_base_lidar = lidar->T_base_lidar;
@@ -103,7 +107,7 @@ CommandRunner AddOdometryCommand(CLI::App& app) {
     std::vector<Eigen::Isometry3d> T_world_base;
     std::size_t weak = 0;
     double fitness_sum = 0.0;
-    for (const odometry::OdometryStep& step : estimator.steps()) {
+    for (const odometry::OdometryStep& step : steps) {
       times.push_back(step.t_us);
       T_world_base.push_back(T_base_lidar * step.T_world_lidar * T_base_lidar.inverse());
       weak += step.weak;
