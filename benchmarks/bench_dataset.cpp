@@ -3,7 +3,7 @@
 // bins, the CLI defaults otherwise, swathes trimmed at the rig.yaml guess) at
 // the rig.yaml guess, against the number of scenes, of scans per scene
 // (--max-scans-per-scene thinning, 0 = all) and of threads. Two kernels: the
-// ForEachProjected visitor of PairCost::SceneCost (what calibrate runs today)
+// ForEachProjected visitor of PairCost::SceneCost (what calibrate runs)
 // and SceneSwathe::AddHardCounts (benchmarks/hard_kernel_cost.hpp).
 //
 // Before timing, every configuration checks AddHardCounts against the visitor

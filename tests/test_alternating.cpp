@@ -99,7 +99,7 @@ TEST(Alternating, InconsistentPairsMeetInBetweenUnderTheKnownTransform) {
 
 // When the levels end apart, the result's warning says what to change, and the
 // number of alternations it names does close the gap (pairs 2 cm inconsistent,
-// as the fourteenth session's wrong inter-camera transform made them).
+// as a wrong inter-camera transform makes them).
 TEST(Alternating, LevelsApartWarningNamesEnoughAlternations) {
   const AlternatingProblem problem = StereoProblem(Perturbed());
   ThreadLowerLevelBackend backend(InconsistentStereoObjectives());

@@ -828,7 +828,7 @@ TEST_F(CalibrateOnSimulation, MotionCorrectionInAltIsSharedByTheLidars) {
 // its true projection. Measured: 0.02 mm, 0.003 deg. With the simulator's own
 // reflectances the minimum lies 0.1-0.5 deg away (the scene's
 // material-dependent relation between visible and infrared brightness,
-// BENCHMARK.md "Ninth session"). A convention slip fails here: the same
+// docs/findings.md, "Why the push-broom setting scores near and far returns apart, and the images' texture"). A convention slip fails here: the same
 // reflectances taken half a pixel off (both axes) end 8 mm / 0.051 deg away,
 // a quarter pixel 4 mm / 0.045 deg.
 TEST_F(CalibrateOnSimulation, CostMachineryIsUnbiasedWhenReflectanceFollowsTheImage) {

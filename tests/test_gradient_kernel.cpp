@@ -52,7 +52,7 @@ TestSwathe MakeSwathe(CameraModelKind kind, std::uint32_t seed) {
   return test::MakeRandomSwathe(camera, image, seed, spec);
 }
 
-// d(u, v) / d(p_camera) with ceres::Jet through the camera_kernel templates (the old kernel's formula).
+// d(u, v) / d(p_camera) with ceres::Jet through the camera_kernel templates (an independent derivative of the projection).
 Eigen::Matrix<double, 2, 3> ReferenceProjectionJacobian(const ProjectionParams& params, const Eigen::Vector3d& p) {
   using Jet = ceres::Jet<double, 2>;
   const double inverse_z = 1.0 / p.z();

@@ -201,13 +201,13 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
 
   const bool has_push_broom = input.rig.HasPushBroomLidar();
   if (has_push_broom && options.range_split_m <= 0.0) {
-    // 10 m push-broom swathes leave the tilt nearly free (BENCHMARK.md, "Sixth session").
+    // 10 m push-broom swathes leave the tilt nearly free (docs/findings.md, "A push-broom lidar's tilt is weakly constrained").
     spdlog::info("push-broom lidar: its tilt is weakly determined by 10 m swathes; on the simulated drives (rear "
                  "and front push-broom lidars) 30 m swathes scored near and far apart did much better: --setting "
                  "push-broom (good odometry) or push-broom-drifting (visual odometry); README, \"What to expect\"");
   } else if (has_push_broom && options.scenes.swathe_length_m >= 20.0 && !options.motion_correction &&
              args.setting != "push-broom") {  // that setting says the odometry is good
-    // Long swathes collect the odometry's drift (BENCHMARK.md, "Seventh session").
+    // Long swathes collect the odometry's drift (docs/findings.md, "Odometry drift moves the minimum along the flat direction").
     spdlog::info("push-broom lidar with {} m swathes: if the trajectory is visual odometry (drifting ~0.01 deg/m), "
                  "--motion-correction turn,drive-scale (--setting push-broom-drifting) corrects each frame's swathe "
                  "and the drive's scale (on two of three simulated drives 0.68-0.85 deg -> 0.12-0.14 deg, 1.4-1.6 "
@@ -216,7 +216,7 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
   }
   if (options.motion_correction && options.motion.drive_scale && options.scheme != CalibrationScheme::kAlt &&
       input.rig.lidars.size() > 1) {
-    // Only alt's correction spans the lidars (BENCHMARK.md, "Twelfth session").
+    // Only alt's correction spans the lidars (BENCHMARK.md, "Trinocular rig").
     spdlog::warn("--scheme {} corrects the drift of each lidar alone, each with its own drive scale; on the simulated "
                  "trinocular rig that tilted the front lidar 0.6 deg, where alt, which shares one correction among "
                  "the lidars, ended 0.18 deg off",
@@ -394,7 +394,7 @@ CommandRunner AddCalibrateCommand(CLI::App& app) {
       "calibrate",
       "Calibrate every lidar of DATASET against its cameras (targetless, from the drive) and write FILE.\n"
       "Exit 1 with the reason when the data cannot be calibrated; 2 for bad arguments or input data.");
-  command->add_option("dataset", args->dataset, "Dataset folder (FORMAT.md)")->required()->check(CLI::ExistingDirectory);
+  command->add_option("dataset", args->dataset, "Dataset folder (docs/FORMAT.md)")->required()->check(CLI::ExistingDirectory);
   command->add_option("-o,--output", args->output, "Result file (YAML, written atomically)")->required();
   command->add_option("--scheme", args->scheme,
                       "alt: the paper's alternating optimisation (a lower-level optimiser per camera/lidar pair, an "
@@ -516,7 +516,7 @@ CommandRunner AddCalibrateCommand(CLI::App& app) {
   command->add_option("--sigma0-translation", alt.sigma0_translation_m,
                       "alt: initial penalty sigma, metres. Default: 5 (the paper) with the simplex lower level, 500 "
                       "with --lower-solver lbfgs, whose lower levels the paper's value already holds near the upper "
-                      "estimate where the cost is flat (BENCHMARK.md, \"Eighth session\")")
+                      "estimate where the cost is flat (docs/findings.md, \"The alternating scheme's penalty holds in the lidar frame\")")
       ->check(kPositive);
   command->add_option("--sigma0-rotation", alt.sigma0_rotation_rad,
                       "alt: initial penalty sigma, radians. Default: 5 (the paper) with the simplex, 500 with "

@@ -583,7 +583,7 @@ CommandRunner AddExperimentCommand(CLI::App& app) {
       ->check(CLI::IsMember({"robotcar", "trinocular"}))
       ->capture_default_str();
   command->add_option("--dataset", args->dataset,
-                      "Use this dataset (FORMAT.md, with ground_truth.yaml) instead of simulating one")
+                      "Use this dataset (docs/FORMAT.md, with ground_truth.yaml) instead of simulating one")
       ->check(CLI::ExistingDirectory);
   command->add_option("-o,--output", args->output, "Output directory (runs.csv, report.html, PNGs, dataset/)")
       ->required();

@@ -22,7 +22,7 @@ CommandRunner AddInspectCommand(CLI::App& app) {
       "Summarise a dataset (sensors, intrinsics, initial extrinsics, time spans, rates, travel, points per scan)\n"
       "and say whether it can be calibrated. Reads every image and scan, so every problem shows now.\n"
       "Exit 0: can be calibrated; 1: valid but cannot be calibrated (reason on stderr); 2: invalid data.");
-  command->add_option("dataset", options->dataset, "Dataset folder (FORMAT.md)")->required();
+  command->add_option("dataset", options->dataset, "Dataset folder (docs/FORMAT.md)")->required();
   command->add_flag("--quick", options->quick, "Do not decode images and scans (file sizes only)");
   return [options] {
     const io::Dataset dataset = io::OpenDataset(options->dataset);

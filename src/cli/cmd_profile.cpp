@@ -346,7 +346,7 @@ CommandRunner AddProfileCommand(CLI::App& app) {
       "rotations turn the lidar about its own origin (as in calibrate's error lines).\n"
       "CSV columns: profile (\"joint LIDAR\" or \"CAMERA/LIDAR\"), frame, dof (x y z roll pitch yaw), offset (m or\n"
       "deg), cost. Exit 1 when no scene can be scored; 2 for bad arguments or input data.");
-  command->add_option("dataset", args->dataset, "Dataset folder (FORMAT.md)")->required()->check(CLI::ExistingDirectory);
+  command->add_option("dataset", args->dataset, "Dataset folder (docs/FORMAT.md)")->required()->check(CLI::ExistingDirectory);
   command->add_option("-o,--output", args->output, "CSV file of the sampled curves (written atomically)")->required();
   command->add_option("--at", args->at,
                       "Centre of the profiles: truth (ground_truth.yaml), guess (rig.yaml) or the path of a "

@@ -88,7 +88,7 @@ void AddCostOptions(CLI::App* command, CostArguments* args) {
                       "x what it says (e.g. 0.3 when visual odometry reports them 0.3 % short, from GNSS or a "
                       "measured drive). The images cannot tell a scale error from a shift of the lidar along the "
                       "travel: each 0.1 % moves a push-broom lidar's estimate 1.3-1.7 cm on the simulated drive "
-                      "(BENCHMARK.md, \"Thirteenth session\")")
+                      "(docs/findings.md, \"The drive's scale is invisible to the images\")")
       ->check(CLI::Range(-19.9, 19.9))
       ->capture_default_str();
   command->add_flag("--no-occlusion", args->no_occlusion, "Disable the z-buffer occlusion test");

@@ -24,7 +24,7 @@ int main(int argc, char** argv) {
   CLI::App app{
       "scenecal: targetless extrinsic calibration of lidars against a multi-camera unit\n"
       "from data recorded while a vehicle drives through an ordinary street.\n"
-      "Data formats: see FORMAT.md. Exit codes: 0 success, 2 invalid arguments or input data,\n"
+      "Data formats: docs/FORMAT.md. Exit codes: 0 success, 2 invalid arguments or input data,\n"
       "1 any other failure, 130 / 143 interrupted by SIGINT / SIGTERM (no output written).",
       "scenecal"};
   app.require_subcommand(1);

@@ -15,7 +15,7 @@ constexpr double kThinPointsPerCell = 2.0;
 constexpr double kRefreshBorderFraction = 0.0375;  // of the image width: 48 px at 1280
 constexpr double kHighpassFraction = 0.0234;       // of the image width: 30 px at 1280
 // At most; alt stops by itself once its levels have settled (26 left them 0.018 deg apart with a known
-// inter-camera transform 0.05 deg off: BENCHMARK.md, "Fourteenth session").
+// inter-camera transform 0.05 deg off: BENCHMARK.md, "The alternating scheme against once and joint").
 constexpr double kAlternations = 40.0;
 constexpr double kStageAlternations = 20.0;
 
@@ -43,7 +43,7 @@ std::vector<SettingOption> SettingOptions(const std::string& setting, bool with_
   if (setting == "push-broom-drifting") {
     // The drift misplaces the texture: no high-pass; each frame's swathe re-posed instead, with one
     // scale for the whole drive unless it is given (the images hardly measure it: BENCHMARK.md,
-    // "Thirteenth session").
+    // "RobotCar, drifting odometry"; docs/findings.md, "The drive's scale is invisible to the images").
     options.push_back({"--motion-correction", odometry_scale_given ? "turn" : "turn,drive-scale"});
   } else {
     options.push_back(Number("--image-highpass", kHighpassFraction));

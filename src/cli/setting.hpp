@@ -1,6 +1,6 @@
 // --setting of `calibrate` and `experiment`: named bundles of options that
 // were measured together on the simulated push-broom drives (README "What to
-// expect", BENCHMARK.md sixth to eleventh sessions), so that a user types one
+// expect", BENCHMARK.md, "Accuracy on the simulated presets"), so that a user types one
 // word instead of nine and scales nothing by hand. Each command applies the
 // options its command line did not give.
 #pragma once

@@ -159,14 +159,22 @@ YAML::Node ReportBasinCheck(const CalibrationInput& input, const CalibrationOpti
       where = fmt::format("; the start turned {:+g} deg about base {} ended at a lower cost ({:.6f} against {:.6f})",
                           lowest->sign * offset_deg, "xyz"[lowest->axis], lowest->cost_end, check.cost_answer);
     }
+    const LidarInfo* lidar = input.rig.FindLidar(check.lidar);
+    const bool push_broom = lidar != nullptr && lidar->kind == LidarKind::k2d;
+    const bool setting_used = result->settings.count("setting") != 0;
+    const std::string advice =
+        push_broom && !setting_used
+            ? "; for a push-broom lidar try --setting push-broom (good odometry) or push-broom-drifting (visual "
+              "odometry), and check the odometry: its drift over the swathe biases the tilt"
+        : push_broom ? "; check the odometry: its drift over the swathe biases the tilt"
+                     : "";
     result->warnings.push_back(fmt::format(
         "lidar {}: basin check: restarts from the answer turned +-{} deg about each base axis ended up to {:.2f} cm "
         "and {:.3f} deg from it{}. The data do not pin the extrinsic down better than that, whatever the local "
         "sigma says; the result along that direction depends on the initial guess. Add scenes with structure off "
-        "the ground or a longer drive (--scenes); for a push-broom lidar behind the cameras try --scheme joint "
-        "--swathe-length 30 --range-split 6 (BENCHMARK.md); check the odometry (its drift over the swathe biases "
-        "the tilt)",
-        check.lidar, offset_deg, 100.0 * check.max_translation_apart_m, check.max_rotation_apart_rad * deg, where));
+        "the ground or a longer drive (--scenes){}",
+        check.lidar, offset_deg, 100.0 * check.max_translation_apart_m, check.max_rotation_apart_rad * deg, where,
+        advice));
   }
   result->timings_s["basin_check"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return node;

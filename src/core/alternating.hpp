@@ -36,7 +36,7 @@ namespace scenecal {
 //  kCamera: P^i is diagonal in the camera-frame difference itself: a turn then
 //    also pays the lever arm's shift at sigma_t, e.g. 17x the rotation
 //    information for a lidar 4 m away with sigma_t = sigma_phi (numerically),
-//    which held the lower levels' rotations back (BENCHMARK.md "Tenth session").
+//    which held the lower levels' rotations back (docs/findings.md, "The alternating scheme's penalty holds in the lidar frame").
 enum class PenaltyFrame { kLidar, kCamera };
 const char* PenaltyFrameName(PenaltyFrame frame);  // "lidar", "camera"
 bool ParsePenaltyFrame(const std::string& name, PenaltyFrame* frame);

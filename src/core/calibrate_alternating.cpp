@@ -72,7 +72,7 @@ std::string LevelsApartWarning(const AlternatingOptions& alternating, const Alte
     // After the stages the gap shrinks with the penalty's covariance, by w an alternation once the penalty
     // is stiffer than the cost: twice the shrinks it needs, and some; the run stops by itself once both
     // levels have settled below the stop thresholds (a known inter-camera transform 0.05 deg off: 0.018 deg
-    // apart after 26, settled after 32; BENCHMARK.md, "Fourteenth session").
+    // apart after 26, settled after 32; BENCHMARK.md, "The alternating scheme against once and joint").
     const auto ratio = [](double apart, double stop, double agreement) {
       return apart / (stop > 0 ? stop : agreement);
     };
@@ -114,7 +114,7 @@ AlternatingOptions DefaultAlternatingOptions(const CalibrationOptions& options, 
   if (options.lower_solver == LowerSolver::kLbfgs) {
     // The paper's P^0 goes with its simplex. L-BFGS lower levels find the smooth
     // cost's own minimum, and there the paper's coupling already holds them back
-    // where the cost is flat (BENCHMARK.md, "Eighth session").
+    // where the cost is flat (docs/findings.md, "The alternating scheme's penalty holds in the lidar frame").
     alternating.initial_sigma_translation_m = kLbfgsInitialSigma;
     alternating.initial_sigma_rotation_rad = kLbfgsInitialSigma;
   }

@@ -64,7 +64,7 @@ std::string LevelsApartWarning(const AlternatingOptions& alternating, const Alte
 
 // P^0's sigma (metres and radians) with L-BFGS lower levels: on the simulated
 // push-broom drives the paper's 5 m / 5 rad left alt 0.1-2.9 deg off, this
-// 0.16-0.25 deg (BENCHMARK.md, "Eighth session").
+// 0.16-0.25 deg (docs/findings.md, "The alternating scheme's penalty holds in the lidar frame").
 inline constexpr double kLbfgsInitialSigma = 500.0;
 
 // The paper's settings (20 alternations, P^0 from 5 m and 5 rad, w = 0.5,

@@ -140,7 +140,7 @@ class TransformCost final : public ceres::FirstOrderFunction {
   // are ~1e-5 per typical step near a minimum, so the first step gained less
   // than the cost's rounding, and the following steps, sized by Ceres from
   // that gain, stayed as small (world 1: joint stuck 0.233 deg from the truth;
-  // BENCHMARK.md "Tenth session"). The L-BFGS directions and the later steps
+  // measured on the simulated RobotCar drive). The L-BFGS directions and the later steps
   // do not depend on a constant factor on the cost.
   void NormaliseAtStart() {
     double value = 0.0;

@@ -42,7 +42,7 @@ struct GradientSolverOptions {
   // the step below parameter_tolerance.
   // NID near 0.95 changes by ~1e-4 along a push-broom tilt valley; at 1e-8 a
   // run could end on one short step while the cost still fell toward the
-  // minimum (0.285 instead of 0.159 deg on one start, BENCHMARK.md "Ninth session").
+  // minimum (0.285 instead of 0.159 deg on one start, the simulated RobotCar drive).
   double function_tolerance = 1e-10;
   double gradient_tolerance = 1e-10;
   double parameter_tolerance = 1e-8;

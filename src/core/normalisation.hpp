@@ -39,7 +39,7 @@ struct NormalisationOptions {
   // whole regions, which relates to the lidar's infrared reflectance
   // differently material by material (on simulated drives that moved the
   // recommended push-broom setting's minimum 0.13-0.31 deg off the truth;
-  // BENCHMARK.md "Ninth session"). The blurred coarse stages keep the whole
+  // docs/findings.md, "Why the push-broom setting scores near and far returns apart, and the images' texture"). The blurred coarse stages keep the whole
   // image: its large regions give the wide basin.
   double intensity_highpass_width_fraction = 0.0;
 
