@@ -181,6 +181,18 @@ TEST(LidarOdometry, CommandOnTheDgpScene) {
     EXPECT_LT(TranslationError(estimated_motion, recorded_motion), 0.02);
     EXPECT_LT(RotationErrorDegrees(estimated_motion, recorded_motion), 0.05);
   }
+  // The extrinsic from ground_truth.yaml, or a missing result file refused before any work.
+  const CliRun truth = RunCli("odometry '" + dataset.string() + "' --lidar LIDAR --extrinsic truth --output '" +
+                                  (temp.path() / "truth.csv").string() + "'",
+                              temp.path());
+  EXPECT_EQ(truth.exit_code, 0) << truth.stderr_text;
+  const CliRun missing = RunCli("odometry '" + dataset.string() + "' --lidar LIDAR --extrinsic '" +
+                                    (temp.path() / "none.yaml").string() + "' --output '" +
+                                    (temp.path() / "none.csv").string() + "'",
+                                temp.path());
+  EXPECT_EQ(missing.exit_code, 2) << missing.stderr_text;
+  EXPECT_EQ(missing.stderr_text.find("registered"), std::string::npos) << "ran before checking: " << missing.stderr_text;
+  EXPECT_FALSE(fs::exists(temp.path() / "none.csv"));
   // An existing trajectory is not replaced without --force; a 2d lidar is refused.
   const CliRun again = RunCli("odometry '" + dataset.string() + "' --lidar LIDAR --output '" + output.string() + "'",
                               temp.path());

@@ -19,11 +19,36 @@ namespace scenecal::cli {
 
 namespace fs = std::filesystem;
 
+namespace {
+
+// T_base_lidar from rig.yaml ("guess"), ground_truth.yaml ("truth") or a result file.
+Eigen::Isometry3d LidarExtrinsic(const fs::path& root, const LidarInfo& lidar, const std::string& source) {
+  if (source == "guess") return lidar.T_base_lidar;
+  if (source == "truth") {
+    const fs::path file = root / "ground_truth.yaml";
+    const GroundTruth truth = io::ReadGroundTruth(file);
+    const auto found = truth.T_base_lidar.find(lidar.name);
+    if (found == truth.T_base_lidar.end()) {
+      throw io::InputError(file.string() + ": lidars." + lidar.name + ": missing; expected the lidar's true extrinsic "
+                           "(--extrinsic truth)");
+    }
+    return found->second;
+  }
+  const CalibrationResult result = io::ReadCalibrationResult(source);
+  for (const LidarCalibration& calibration : result.lidars) {
+    if (calibration.lidar == lidar.name) return calibration.T_base_lidar;
+  }
+  throw io::InputError(source + ": lidars." + lidar.name + ": missing; expected a result that calibrated this lidar");
+}
+
+}  // namespace
+
 CommandRunner AddOdometryCommand(CLI::App& app) {
   struct Options {
     std::string dataset;
     std::string lidar;
     std::string output;
+    std::string extrinsic = "guess";
     bool force = false;
     odometry::LidarOdometryOptions odometry;
   };
@@ -41,6 +66,11 @@ CommandRunner AddOdometryCommand(CLI::App& app) {
   command->add_option("-o,--output", options->output,
                       "Trajectory file to write (default DATASET/trajectory.csv; replacing it needs --force)");
   command->add_flag("--force", options->force, "Replace an existing trajectory file");
+  command->add_option("--extrinsic", options->extrinsic,
+                      "The lidar's T_base_lidar that turns its motion into the base frame's: guess (rig.yaml), "
+                      "truth (ground_truth.yaml) or the path of a calibrate result (to refine the trajectory "
+                      "after a calibration)")
+      ->capture_default_str();
   command->add_option("--voxel", options->odometry.voxel_m, "Down-sampling voxel for scans and map (m)")
       ->check(kPositive)
       ->capture_default_str();
@@ -81,13 +111,14 @@ CommandRunner AddOdometryCommand(CLI::App& app) {
     std::optional<Trajectory> reference;
     if (fs::exists(recorded, error)) reference = io::ReadTrajectory(recorded);
 
+    const Eigen::Isometry3d T_base_lidar = LidarExtrinsic(root, *lidar, options->extrinsic);
     const std::vector<io::SensorFile> files = io::ListLidarScans(root, lidar->name);
     spdlog::info("lidar odometry of {} ({} scans): voxel {} m, range {}..{} m, {} keyframes in the map", lidar->name,
                  files.size(), options->odometry.voxel_m, options->odometry.min_range_m,
                  options->odometry.max_range_m, options->odometry.map_keyframes);
     const odometry::RunLidarOdometryFn run_odometry = LoadOdometryPlugin();
     const auto start = std::chrono::steady_clock::now();
-    std::size_t handed = 0, next_report = 0;
+    std::size_t handed = 0, next_report = 1;
     const std::vector<odometry::OdometryStep> steps = run_odometry(options->odometry, [&](LidarScan* scan) {
       // Asked for scan i once scans 0..i-1 are registered.
       if (handed >= next_report || handed == files.size()) {
@@ -102,7 +133,6 @@ CommandRunner AddOdometryCommand(CLI::App& app) {
     });
 
     // Base poses: world = the base frame at the first scan.
-    const Eigen::Isometry3d& T_base_lidar = lidar->T_base_lidar;
     std::vector<TimeUs> times;
     std::vector<Eigen::Isometry3d> T_world_base;
     std::size_t weak = 0;
