@@ -8,7 +8,6 @@
 #include <cstring>
 #include <memory>
 #include <optional>
-#include <regex>
 
 #include <fmt/format.h>
 
@@ -71,12 +70,33 @@ double ReadElement(const unsigned char* data, const ElementType& type) {
   }
 }
 
-// The value of `key` in the header's Python dict literal, as written.
+// The value of `key` in the header's Python dict literal, as written: a
+// quoted string, True, False or a parenthesised tuple. (A scan, not a regular
+// expression: the header is read for every cloud.)
 std::optional<std::string> HeaderValue(const std::string& header, const std::string& key) {
-  const std::regex pattern("['\"]" + key + R"(['"]\s*:\s*('[^']*'|"[^"]*"|True|False|\([^)]*\)))");
-  std::smatch match;
-  if (!std::regex_search(header, match, pattern)) return std::nullopt;
-  return match[1].str();
+  for (const char quote : {'\'', '"'}) {
+    const std::string quoted = std::string(1, quote) + key + quote;
+    std::size_t pos = header.find(quoted);
+    if (pos == std::string::npos) continue;
+    pos += quoted.size();
+    while (pos < header.size() && header[pos] == ' ') ++pos;
+    if (pos >= header.size() || header[pos] != ':') return std::nullopt;
+    ++pos;
+    while (pos < header.size() && header[pos] == ' ') ++pos;
+    if (pos >= header.size()) return std::nullopt;
+    const char first = header[pos];
+    const char closing = first == '(' ? ')' : (first == '\'' || first == '"') ? first : '\0';
+    if (closing != '\0') {
+      const std::size_t end = header.find(closing, pos + 1);
+      if (end == std::string::npos) return std::nullopt;
+      return header.substr(pos, end - pos + 1);
+    }
+    for (const char* word : {"True", "False"}) {
+      if (header.compare(pos, std::strlen(word), word) == 0) return std::string(word);
+    }
+    return std::nullopt;
+  }
+  return std::nullopt;
 }
 
 }  // namespace
