@@ -147,6 +147,10 @@ TEST(DgpImport, MalformedScenesAreRefusedWithoutOutput) {
   bad_base.base_camera = "CAMERA_05";
   const std::vector<BadScene> cases = {
       {"JSON syntax error", scene_json("\"samples\"", "\"samples\" ]"), "scene_", "byte"},
+      // Found by fuzz_dgp_scene: a number beyond a double escaped as nlohmann's out_of_range.
+      {"number beyond a double", scene_json("\"qw\": 0.28545389542589", "\"qw\": 66e411"), "scene_", "JSON"},
+      {"calibration number beyond a double", calibration("\"fx\": 2167.6926048451924", "\"fx\": 0.6718e223863801"),
+       "calibration", "JSON"},
       {"quaternion not of unit norm", scene_json("\"qw\": 0.28545389542589", "\"qw\": 0.58545389542589"), "scene_",
        "data[0].datum.point_cloud.pose.rotation"},
       {"timestamp not RFC 3339", scene_json("2463-05-15T00:38:58.203752Z", "2463-05-15 noon"), "scene_",

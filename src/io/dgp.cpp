@@ -41,6 +41,10 @@ class JsonReader {
       return Json::parse(text);
     } catch (const Json::parse_error& e) {
       Fail(name_, fmt::format("byte {}", e.byte), std::string("JSON syntax error: ") + e.what(), "valid JSON");
+    } catch (const Json::exception& e) {
+      // Valid syntax the parser still cannot hold, e.g. a number beyond a
+      // double (1e400: out_of_range.406).
+      Fail(name_, "JSON", e.what(), "JSON whose numbers fit a double");
     }
   }
 
