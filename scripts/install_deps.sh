@@ -12,6 +12,8 @@ packages=(
   nlohmann-json3-dev libzip-dev zipcmp zipmerge ziptool
   # Lidar odometry: Open3D's registration (19 packages; PCL would bring VTK, Qt and Boost, ~250).
   libopen3d-dev
+  # Fuzzing the parsers (scripts/fuzz.sh): clang with libFuzzer and the sanitizer runtimes.
+  clang libclang-rt-14-dev
   libopenmpi-dev openmpi-bin
   libgtest-dev libgmock-dev libbenchmark-dev
   # The timing scripts (scripts/bench_*.sh): /usr/bin/time -v, Python 3 with PyYAML.
