@@ -1,8 +1,8 @@
 // The lidar odometry as a plugin the scenecal command loads when it needs it.
 //
-// Open3D pulls in about 200 shared libraries (its renderer, GL, X11, ...):
-// linked into the command, every invocation paid ~0.2-1 s of loading for a
-// feature few of them use. The command instead dlopen()s
+// Open3D pulls in ~50 shared libraries of its own (its renderer, GL, ...):
+// linked into the command (215 libraries instead of 168), every invocation
+// and every test process loaded them for a feature few of them use. The command instead dlopen()s
 // libscenecal_odometry.so from its own folder for `odometry` and for KITTI
 // snippets without poses (LoadOdometryPlugin in cli/odometry_plugin.hpp).
 #pragma once
