@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <regex>
 #include <set>
@@ -183,7 +184,8 @@ DgpScene ParseDgpScene(const std::string& json_text, const std::string& name) {
     datum.timestamp = reader.String(id, field + ".id", "timestamp");
     const std::optional<TimeUs> t_us = ParseRfc3339(datum.timestamp);
     if (!t_us) {
-      Fail(name, field + ".id.timestamp", "'" + datum.timestamp + "'", "an RFC 3339 time such as 2019-03-28T11:10:09.112358Z");
+      Fail(name, field + ".id.timestamp", "'" + datum.timestamp + "'",
+           "an RFC 3339 time such as 2019-03-28T11:10:09.112358Z");
     }
     datum.raw_t_us = *t_us;
     const std::string datum_field = field + ".datum." + kind;
@@ -248,7 +250,9 @@ DgpCalibration ParseDgpCalibration(const std::string& json_text, const std::stri
     sensor.cy = reader.Number(in, field, "cy");
     if (const Json* skew = reader.Optional(in, "skew")) sensor.skew = reader.Number(*skew, field + ".skew");
     if (const Json* fisheye = reader.Optional(in, "fisheye")) {
-      if (!fisheye->is_boolean()) Fail(name, field + ".fisheye", "found " + JsonReader::Describe(*fisheye), "true or false");
+      if (!fisheye->is_boolean()) {
+        Fail(name, field + ".fisheye", "found " + JsonReader::Describe(*fisheye), "true or false");
+      }
       sensor.fisheye = fisheye->get<bool>();
     }
     const std::pair<const char*, double*> terms[] = {{"k1", &sensor.k1}, {"k2", &sensor.k2}, {"k3", &sensor.k3},
@@ -291,7 +295,8 @@ CameraModel CameraFromCalibration(const DgpSensorCalibration& sensor, int width,
                                   const std::string& calibration_file) {
   const std::string field = "intrinsics of " + sensor.name;
   if (std::abs(sensor.skew) > 1e-9 * std::max(1.0, std::abs(sensor.fx))) {
-    Fail(calibration_file, field + ".skew", fmt::format("{}", sensor.skew), "0 (scenecal's camera models have no skew)");
+    Fail(calibration_file, field + ".skew", fmt::format("{}", sensor.skew),
+         "0 (scenecal's camera models have no skew)");
   }
   if (!sensor.unsupported_term.empty()) {
     Fail(calibration_file, field + "." + sensor.unsupported_term, "non-zero",
@@ -334,6 +339,245 @@ PointColumns FindPointColumns(const DgpDatum& datum, const std::string& scene_na
   return {column({"X"}), column({"Y"}), column({"Z"}), column({"INTENSITY", "REFLECTANCE"})};
 }
 
+// The scene's sensors to import: its cameras (or those asked for), every lidar, and the base camera.
+struct DgpSensors {
+  std::set<std::string> cameras;
+  std::set<std::string> lidars;
+  std::string base;
+};
+
+DgpSensors ChooseSensors(const DgpScene& scene, const std::string& scene_name, const DgpImportOptions& options) {
+  std::set<std::string> scene_cameras;
+  DgpSensors sensors;
+  for (const DgpDatum& datum : scene.data) {
+    (datum.kind == DgpDatum::Kind::kImage ? scene_cameras : sensors.lidars).insert(datum.sensor);
+  }
+  if (sensors.lidars.empty()) Fail(scene_name, "data", "no point_cloud datum", "at least one lidar");
+  sensors.cameras.insert(options.cameras.begin(), options.cameras.end());
+  for (const std::string& camera : sensors.cameras) {
+    if (scene_cameras.count(camera) == 0) {
+      Fail(scene_name, "--cameras", "'" + camera + "' has no image in the scene",
+           SensorExpected(fmt::format("camera ({})", fmt::join(scene_cameras, ", "))));
+    }
+  }
+  if (sensors.cameras.empty()) sensors.cameras = scene_cameras;
+  if (sensors.cameras.empty()) Fail(scene_name, "data", "no image datum", "at least one camera");
+  sensors.base = options.base_camera.empty() ? *sensors.cameras.begin() : options.base_camera;
+  if (sensors.cameras.count(sensors.base) == 0) {
+    Fail(scene_name, "--base-camera", "'" + sensors.base + "' is not an imported camera",
+         SensorExpected(fmt::format("camera imported ({})", fmt::join(sensors.cameras, ", "))));
+  }
+  return sensors;
+}
+
+// Every point cloud is imported, and the images of the imported cameras.
+bool IsImported(const DgpDatum& datum, const std::set<std::string>& cameras) {
+  return datum.kind != DgpDatum::Kind::kImage || cameras.count(datum.sensor) != 0;
+}
+
+const DgpSensorCalibration& SensorCalibration(const DgpCalibration& calibration, const std::string& sensor,
+                                              const fs::path& calibration_file) {
+  const DgpSensorCalibration* found = calibration.Find(sensor);
+  if (found == nullptr) {
+    Fail(calibration_file.string(), "names", "no entry for '" + sensor + "'", "every sensor of the scene");
+  }
+  return *found;
+}
+
+// Times are microseconds, or the 100 ns count of some writers: read as
+// microseconds, those lie in an impossible year.
+bool TimesIn100ns(const DgpScene& scene) {
+  TimeUs latest = std::numeric_limits<TimeUs>::min();
+  for (const DgpDatum& datum : scene.data) latest = std::max(latest, datum.raw_t_us);
+  const TimeUs last_plausible_us =
+      std::chrono::sys_days(std::chrono::year{kLastPlausibleYear} / 1 / 1).time_since_epoch().count() *
+      86'400'000'000LL;
+  return latest > last_plausible_us;
+}
+
+TimeUs DatumTime(const DgpDatum& datum, bool times_in_100ns) {
+  return times_in_100ns ? datum.raw_t_us / 10 : datum.raw_t_us;
+}
+
+// The rig (base camera first), its lidars' extrinsics also as ground truth.
+Rig BuildRig(const DgpScene& scene, const DgpSensors& sensors, const DgpCalibration& calibration,
+             const fs::path& calibration_file, const Eigen::Isometry3d& T_vehicle_base, GroundTruth* truth) {
+  const Eigen::Isometry3d T_base_vehicle = T_vehicle_base.inverse();
+  Rig rig;
+  rig.base_frame = sensors.base;
+  std::map<std::string, const DgpDatum*> first_image;
+  for (const DgpDatum& datum : scene.data) {
+    if (datum.kind == DgpDatum::Kind::kImage && sensors.cameras.count(datum.sensor) != 0) {
+      first_image.emplace(datum.sensor, &datum);
+    }
+  }
+  for (const std::string& name : sensors.cameras) {
+    const DgpSensorCalibration& sensor = SensorCalibration(calibration, name, calibration_file);
+    CameraInfo camera;
+    camera.name = name;
+    camera.model = CameraFromCalibration(sensor, first_image.at(name)->width, first_image.at(name)->height,
+                                         calibration_file.string());
+    camera.T_base_camera =
+        name == sensors.base ? Eigen::Isometry3d::Identity() : T_base_vehicle * sensor.T_vehicle_sensor;
+    rig.cameras.push_back(std::move(camera));
+  }
+  for (const std::string& name : sensors.lidars) {
+    LidarInfo lidar;
+    lidar.name = name;
+    lidar.kind = LidarKind::k3d;
+    lidar.T_base_lidar = T_base_vehicle * SensorCalibration(calibration, name, calibration_file).T_vehicle_sensor;
+    truth->T_base_lidar[name] = lidar.T_base_lidar;
+    rig.lidars.push_back(std::move(lidar));
+  }
+  // Sorted so the base camera comes first, as in every scenecal rig.
+  std::stable_partition(rig.cameras.begin(), rig.cameras.end(),
+                        [&](const CameraInfo& camera) { return camera.name == sensors.base; });
+  return rig;
+}
+
+// A datum to write, at its time.
+struct DatumAt {
+  const DgpDatum* datum;
+  TimeUs t_us;
+};
+
+// The data to write, checked first: files present, image sizes, point
+// columns, times unique per sensor.
+void SelectData(const DgpScene& scene, const fs::path& scene_dir, const std::string& scene_name, const Rig& rig,
+                const std::set<std::string>& cameras, bool times_in_100ns, std::vector<DatumAt>* images,
+                std::vector<DatumAt>* scans) {
+  std::error_code error;
+  std::map<std::string, std::set<TimeUs>> times_of_sensor;
+  for (const DgpDatum& datum : scene.data) {
+    if (!IsImported(datum, cameras)) continue;
+    const bool image = datum.kind == DgpDatum::Kind::kImage;
+    const fs::path file = scene_dir / datum.filename;
+    if (!fs::is_regular_file(file, error)) {
+      Fail(file.string(), "file", "missing (named by datum " + datum.key + ")", "the datum's file in the scene folder");
+    }
+    const TimeUs t_us = DatumTime(datum, times_in_100ns);
+    if (!times_of_sensor[datum.sensor].insert(t_us).second) {
+      Fail(scene_name, "id.timestamp of " + datum.key,
+           fmt::format("{} repeated for {}", datum.timestamp, datum.sensor), "one datum per sensor and time");
+    }
+    if (image) {
+      const std::string extension = fs::path(datum.filename).extension().string();
+      if (extension != ".jpg" && extension != ".jpeg" && extension != ".png") {
+        Fail(file.string(), "file name", "extension '" + extension + "'", "a .jpg or .png image");
+      }
+      const CameraInfo& camera = *rig.FindCamera(datum.sensor);
+      const auto size = ImageFileSize(file);
+      if (!size || size->first != camera.model.width || size->second != camera.model.height) {
+        Fail(file.string(), "image size",
+             size ? fmt::format("{} x {} pixels", size->first, size->second) : std::string("no readable header"),
+             fmt::format("{} x {} pixels as the datum says", camera.model.width, camera.model.height));
+      }
+      images->push_back({&datum, t_us});
+    } else {
+      FindPointColumns(datum, scene_name);
+      scans->push_back({&datum, t_us});
+    }
+  }
+}
+
+// T_world_base at every datum time, datums of one time averaged (their
+// largest disagreement goes to the summary), origin at the first row's position.
+Trajectory SceneTrajectory(const DgpScene& scene, const std::set<std::string>& cameras,
+                           const DgpCalibration& calibration, const fs::path& calibration_file,
+                           const Eigen::Isometry3d& T_vehicle_base, bool times_in_100ns, DgpImportSummary* summary) {
+  std::map<TimeUs, std::vector<Eigen::Isometry3d>> poses_at;
+  for (const DgpDatum& datum : scene.data) {
+    if (!IsImported(datum, cameras)) continue;
+    const Eigen::Isometry3d T_vehicle_sensor =
+        SensorCalibration(calibration, datum.sensor, calibration_file).T_vehicle_sensor;
+    poses_at[DatumTime(datum, times_in_100ns)].push_back(datum.T_world_sensor * T_vehicle_sensor.inverse() *
+                                                         T_vehicle_base);
+  }
+  std::vector<TimeUs> pose_times;
+  std::vector<Eigen::Isometry3d> T_world_base;
+  for (const auto& [t_us, poses] : poses_at) {
+    Eigen::Vector3d mean_translation = Eigen::Vector3d::Zero();
+    for (const Eigen::Isometry3d& pose : poses) mean_translation += pose.translation();
+    mean_translation /= static_cast<double>(poses.size());
+    Eigen::Isometry3d mean = poses.front();
+    mean.translation() = mean_translation;
+    for (const Eigen::Isometry3d& pose : poses) {
+      summary->pose_disagreement_m =
+          std::max(summary->pose_disagreement_m, (pose.translation() - mean_translation).norm());
+      summary->pose_disagreement_deg = std::max(summary->pose_disagreement_deg, RotationErrorDegrees(pose, mean));
+    }
+    pose_times.push_back(t_us);
+    T_world_base.push_back(mean);
+  }
+  // World coordinates can be large: the first row's position becomes the origin.
+  const Eigen::Vector3d origin = T_world_base.front().translation();
+  for (Eigen::Isometry3d& pose : T_world_base) pose.translation() -= origin;
+  return Trajectory(std::move(pose_times), std::move(T_world_base));
+}
+
+// rig.yaml's `extra:`: where the dataset came from and how it was converted.
+YAML::Node ImportNotes(const DgpImportSummary& summary, const fs::path& calibration_file) {
+  YAML::Node extra;
+  extra["source"] = "dgp";
+  extra["scene_file"] = summary.scene_file.string();
+  extra["calibration_file"] = calibration_file.string();
+  extra["ground_truth"] =
+      "ground_truth.yaml holds the recording's own calibration of each lidar (its extrinsics relative to the base "
+      "camera); a reference, not exact truth";
+  if (summary.times_in_100ns) {
+    extra["times"] = "the scene's timestamps lie after 2200 when read as microseconds: read as 100 ns units";
+  }
+  return extra;
+}
+
+// A point-cloud datum's points (X, Y, Z and intensity columns of its .npz, in the lidar frame).
+std::vector<LidarPoint> ReadDatumPoints(const fs::path& file, const DgpDatum& datum, const std::string& scene_name) {
+  const NpyArray array = ReadNpz(file, "");
+  const PointColumns columns = FindPointColumns(datum, scene_name);
+  if (array.cols != datum.point_format.size()) {
+    Fail(file.string(), "shape", fmt::format("{} columns", array.cols),
+         fmt::format("{} columns as point_format names", datum.point_format.size()));
+  }
+  std::vector<LidarPoint> points(array.rows);
+  for (std::size_t row = 0; row < array.rows; ++row) {
+    points[row] = {static_cast<float>(array.At(row, columns.x)), static_cast<float>(array.At(row, columns.y)),
+                   static_cast<float>(array.At(row, columns.z)),
+                   static_cast<float>(array.At(row, columns.intensity))};
+  }
+  return points;
+}
+
+// Writes the images (copied unchanged) and the scans (converted) into the
+// dataset at root, named by time; counts them in the summary.
+void WriteSensorData(const fs::path& root, const fs::path& scene_dir, const std::string& scene_name,
+                     const std::vector<DatumAt>& images, const std::vector<DatumAt>& scans,
+                     const DgpImportOptions& options, DgpImportSummary* summary) {
+  const std::size_t total = images.size() + scans.size();
+  std::size_t done = 0;
+  const auto progress = [&] {
+    ThrowIfInterrupted();  // after each file; StagedOutput's destructor removes the partial copy
+    ++done;
+    if (options.progress) options.progress(done, total);
+  };
+  for (const DatumAt& item : images) {
+    const fs::path folder = root / "cameras" / item.datum->sensor;
+    fs::create_directories(folder);
+    fs::copy_file(scene_dir / item.datum->filename,
+                  folder / (std::to_string(item.t_us) + fs::path(item.datum->filename).extension().string()));
+    ++summary->images;
+    progress();
+  }
+  for (const DatumAt& item : scans) {
+    const std::vector<LidarPoint> points = ReadDatumPoints(scene_dir / item.datum->filename, *item.datum, scene_name);
+    const fs::path folder = root / "lidars" / item.datum->sensor;
+    fs::create_directories(folder);
+    WriteScan(folder / (std::to_string(item.t_us) + ".bin"), points);
+    ++summary->scans;
+    summary->points += points.size();
+    progress();
+  }
+}
+
 }  // namespace
 
 DgpImportSummary ImportDgp(const fs::path& scene_dir_in, const fs::path& output, const DgpImportOptions& options) {
@@ -357,198 +601,32 @@ DgpImportSummary ImportDgp(const fs::path& scene_dir_in, const fs::path& output,
   const DgpCalibration calibration =
       ParseDgpCalibration(detail::ReadTextFile(calibration_file, kMaxJsonBytes), calibration_file.string());
 
-  // Sensors: the scene's cameras (or those asked for) and every lidar.
-  std::set<std::string> scene_cameras, scene_lidars;
-  for (const DgpDatum& datum : scene.data) {
-    (datum.kind == DgpDatum::Kind::kImage ? scene_cameras : scene_lidars).insert(datum.sensor);
-  }
-  if (scene_lidars.empty()) Fail(scene_name, "data", "no point_cloud datum", "at least one lidar");
-  std::set<std::string> cameras(options.cameras.begin(), options.cameras.end());
-  for (const std::string& camera : cameras) {
-    if (scene_cameras.count(camera) == 0) {
-      Fail(scene_name, "--cameras", "'" + camera + "' has no image in the scene",
-           SensorExpected(fmt::format("camera ({})", fmt::join(scene_cameras, ", "))));
-    }
-  }
-  if (cameras.empty()) cameras = scene_cameras;
-  if (cameras.empty()) Fail(scene_name, "data", "no image datum", "at least one camera");
-  const std::string base = options.base_camera.empty() ? *cameras.begin() : options.base_camera;
-  if (cameras.count(base) == 0) {
-    Fail(scene_name, "--base-camera", "'" + base + "' is not an imported camera",
-         SensorExpected(fmt::format("camera imported ({})", fmt::join(cameras, ", "))));
-  }
-  const auto sensor_calibration = [&](const std::string& sensor) -> const DgpSensorCalibration& {
-    const DgpSensorCalibration* found = calibration.Find(sensor);
-    if (found == nullptr) Fail(calibration_file.string(), "names", "no entry for '" + sensor + "'", "every sensor of the scene");
-    return *found;
-  };
-  const Eigen::Isometry3d T_vehicle_base = sensor_calibration(base).T_vehicle_sensor;
-  const Eigen::Isometry3d T_base_vehicle = T_vehicle_base.inverse();
-
-  // Times: microseconds, or the 100 ns count of some writers (an impossible year).
-  TimeUs latest = std::numeric_limits<TimeUs>::min();
-  for (const DgpDatum& datum : scene.data) latest = std::max(latest, datum.raw_t_us);
-  const TimeUs last_plausible_us =
-      std::chrono::sys_days(std::chrono::year{kLastPlausibleYear} / 1 / 1).time_since_epoch().count() * 86'400'000'000LL;
-  summary.times_in_100ns = latest > last_plausible_us;
-  const auto datum_time = [&](const DgpDatum& datum) {
-    return summary.times_in_100ns ? datum.raw_t_us / 10 : datum.raw_t_us;
-  };
-
-  // Rig.
-  Rig rig;
-  rig.base_frame = base;
-  std::map<std::string, const DgpDatum*> first_image;
-  for (const DgpDatum& datum : scene.data) {
-    if (datum.kind == DgpDatum::Kind::kImage && cameras.count(datum.sensor) != 0) first_image.emplace(datum.sensor, &datum);
-  }
-  for (const std::string& name : cameras) {
-    const DgpSensorCalibration& sensor = sensor_calibration(name);
-    CameraInfo camera;
-    camera.name = name;
-    camera.model = CameraFromCalibration(sensor, first_image.at(name)->width, first_image.at(name)->height,
-                                         calibration_file.string());
-    camera.T_base_camera = name == base ? Eigen::Isometry3d::Identity() : T_base_vehicle * sensor.T_vehicle_sensor;
-    rig.cameras.push_back(std::move(camera));
-  }
+  const DgpSensors sensors = ChooseSensors(scene, scene_name, options);
+  const Eigen::Isometry3d T_vehicle_base =
+      SensorCalibration(calibration, sensors.base, calibration_file).T_vehicle_sensor;
+  summary.times_in_100ns = TimesIn100ns(scene);
   GroundTruth truth;
-  for (const std::string& name : scene_lidars) {
-    LidarInfo lidar;
-    lidar.name = name;
-    lidar.kind = LidarKind::k3d;
-    lidar.T_base_lidar = T_base_vehicle * sensor_calibration(name).T_vehicle_sensor;
-    truth.T_base_lidar[name] = lidar.T_base_lidar;
-    rig.lidars.push_back(std::move(lidar));
-  }
-  // Sorted so the base camera comes first, as in every scenecal rig.
-  std::stable_partition(rig.cameras.begin(), rig.cameras.end(),
-                        [&](const CameraInfo& camera) { return camera.name == base; });
+  const Rig rig = BuildRig(scene, sensors, calibration, calibration_file, T_vehicle_base, &truth);
+  std::vector<DatumAt> images, scans;
+  SelectData(scene, scene_dir, scene_name, rig, sensors.cameras, summary.times_in_100ns, &images, &scans);
+  const Trajectory trajectory = SceneTrajectory(scene, sensors.cameras, calibration, calibration_file, T_vehicle_base,
+                                                summary.times_in_100ns, &summary);
 
-  // The data to write, checked first: files present, sizes, times unique per sensor.
-  struct Item {
-    const DgpDatum* datum;
-    TimeUs t_us;
-  };
-  std::vector<Item> images, scans;
-  std::map<std::string, std::set<TimeUs>> times_of_sensor;
-  for (const DgpDatum& datum : scene.data) {
-    const bool image = datum.kind == DgpDatum::Kind::kImage;
-    if (image && cameras.count(datum.sensor) == 0) continue;
-    const fs::path file = scene_dir / datum.filename;
-    if (!fs::is_regular_file(file, error)) {
-      Fail(file.string(), "file", "missing (named by datum " + datum.key + ")", "the datum's file in the scene folder");
-    }
-    const TimeUs t_us = datum_time(datum);
-    if (!times_of_sensor[datum.sensor].insert(t_us).second) {
-      Fail(scene_name, "id.timestamp of " + datum.key, fmt::format("{} repeated for {}", datum.timestamp, datum.sensor),
-           "one datum per sensor and time");
-    }
-    if (image) {
-      const std::string extension = fs::path(datum.filename).extension().string();
-      if (extension != ".jpg" && extension != ".jpeg" && extension != ".png") {
-        Fail(file.string(), "file name", "extension '" + extension + "'", "a .jpg or .png image");
-      }
-      const CameraInfo& camera = *rig.FindCamera(datum.sensor);
-      const auto size = ImageFileSize(file);
-      if (!size || size->first != camera.model.width || size->second != camera.model.height) {
-        Fail(file.string(), "image size",
-             size ? fmt::format("{} x {} pixels", size->first, size->second) : std::string("no readable header"),
-             fmt::format("{} x {} pixels as the datum says", camera.model.width, camera.model.height));
-      }
-      images.push_back({&datum, t_us});
-    } else {
-      FindPointColumns(datum, scene_name);
-      scans.push_back({&datum, t_us});
-    }
-  }
-
-  // Trajectory: T_world_base at every datum time, datums of one time averaged.
-  std::map<TimeUs, std::vector<Eigen::Isometry3d>> poses_at;
-  for (const DgpDatum& datum : scene.data) {
-    if (datum.kind == DgpDatum::Kind::kImage && cameras.count(datum.sensor) == 0) continue;
-    const Eigen::Isometry3d T_vehicle_sensor = sensor_calibration(datum.sensor).T_vehicle_sensor;
-    poses_at[datum_time(datum)].push_back(datum.T_world_sensor * T_vehicle_sensor.inverse() * T_vehicle_base);
-  }
-  std::vector<TimeUs> pose_times;
-  std::vector<Eigen::Isometry3d> T_world_base;
-  for (const auto& [t_us, poses] : poses_at) {
-    Eigen::Vector3d mean_translation = Eigen::Vector3d::Zero();
-    for (const Eigen::Isometry3d& pose : poses) mean_translation += pose.translation();
-    mean_translation /= static_cast<double>(poses.size());
-    Eigen::Isometry3d mean = poses.front();
-    mean.translation() = mean_translation;
-    for (const Eigen::Isometry3d& pose : poses) {
-      summary.pose_disagreement_m = std::max(summary.pose_disagreement_m, (pose.translation() - mean_translation).norm());
-      summary.pose_disagreement_deg = std::max(summary.pose_disagreement_deg, RotationErrorDegrees(pose, mean));
-    }
-    pose_times.push_back(t_us);
-    T_world_base.push_back(mean);
-  }
-  // World coordinates can be large: the first row's position becomes the origin.
-  const Eigen::Vector3d origin = T_world_base.front().translation();
-  for (Eigen::Isometry3d& pose : T_world_base) pose.translation() -= origin;
-
-  // Write.
   StagedOutput staged(target);
   const fs::path& root = staged.Staging();
-  YAML::Node extra;
-  extra["source"] = "dgp";
-  extra["scene_file"] = summary.scene_file.string();
-  extra["calibration_file"] = calibration_file.string();
-  extra["ground_truth"] =
-      "ground_truth.yaml holds the recording's own calibration of each lidar (its extrinsics relative to the base "
-      "camera); a reference, not exact truth";
-  if (summary.times_in_100ns) {
-    extra["times"] = "the scene's timestamps lie after 2200 when read as microseconds: read as 100 ns units";
-  }
-  WriteRig(root / "rig.yaml", rig, extra);
-  WriteTrajectory(root / "trajectory.csv", Trajectory(pose_times, T_world_base));
+  WriteRig(root / "rig.yaml", rig, ImportNotes(summary, calibration_file));
+  WriteTrajectory(root / "trajectory.csv", trajectory);
   WriteGroundTruth(root / "ground_truth.yaml", truth);
-  const std::size_t total = images.size() + scans.size();
-  std::size_t done = 0;
-  const auto progress = [&] {
-    ThrowIfInterrupted();  // after each file; StagedOutput's destructor removes the partial copy
-    ++done;
-    if (options.progress) options.progress(done, total);
-  };
-  for (const Item& item : images) {
-    const fs::path folder = root / "cameras" / item.datum->sensor;
-    fs::create_directories(folder);
-    fs::copy_file(scene_dir / item.datum->filename,
-                  folder / (std::to_string(item.t_us) + fs::path(item.datum->filename).extension().string()));
-    ++summary.images;
-    progress();
-  }
-  for (const Item& item : scans) {
-    const fs::path file = scene_dir / item.datum->filename;
-    const NpyArray array = ReadNpz(file, "");
-    const PointColumns columns = FindPointColumns(*item.datum, scene_name);
-    if (array.cols != item.datum->point_format.size()) {
-      Fail(file.string(), "shape", fmt::format("{} columns", array.cols),
-           fmt::format("{} columns as point_format names", item.datum->point_format.size()));
-    }
-    std::vector<LidarPoint> points(array.rows);
-    for (std::size_t row = 0; row < array.rows; ++row) {
-      points[row] = {static_cast<float>(array.At(row, columns.x)), static_cast<float>(array.At(row, columns.y)),
-                     static_cast<float>(array.At(row, columns.z)),
-                     static_cast<float>(array.At(row, columns.intensity))};
-    }
-    const fs::path folder = root / "lidars" / item.datum->sensor;
-    fs::create_directories(folder);
-    WriteScan(folder / (std::to_string(item.t_us) + ".bin"), points);
-    ++summary.scans;
-    summary.points += points.size();
-    progress();
-  }
+  WriteSensorData(root, scene_dir, scene_name, images, scans, options, &summary);
   OpenDataset(root);  // the result must read back as a valid dataset
   ThrowIfInterrupted();  // the last point at which the output can still be left as it was
   staged.Commit();
 
   summary.dataset = target;
-  summary.base_frame = base;
+  summary.base_frame = sensors.base;
   for (const CameraInfo& camera : rig.cameras) summary.cameras.push_back(camera.name);
   for (const LidarInfo& lidar : rig.lidars) summary.lidars.push_back(lidar.name);
-  summary.poses = pose_times.size();
+  summary.poses = trajectory.size();
   return summary;
 }
 

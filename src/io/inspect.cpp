@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 
 #include <fmt/format.h>
 
@@ -36,159 +37,185 @@ std::string SpanText(const std::optional<TimeSpan>& span) {
   return fmt::format("{} .. {} us ({:.3f} s)", span->first_us, span->last_us, span->DurationS());
 }
 
+const std::vector<SensorFile>& FilesOf(const std::map<std::string, std::vector<SensorFile>>& listing,
+                                       const std::string& sensor) {
+  static const std::vector<SensorFile> no_files;
+  const auto it = listing.find(sensor);
+  return it == listing.end() ? no_files : it->second;
+}
+
+void SummariseTrajectory(const Trajectory& trajectory, const SummaryOptions& options, DatasetSummary* summary) {
+  summary->trajectory_rows = trajectory.size();
+  summary->static_dataset = trajectory.size() == 1;
+  if (trajectory.empty()) return;
+  summary->trajectory_span = {trajectory.times_us().front(), trajectory.times_us().back()};
+  summary->distance_m = trajectory.TotalDistance();
+  const double duration_s = summary->trajectory_span.DurationS();
+  summary->mean_speed_m_s = duration_s > 0 ? summary->distance_m / duration_s : 0.0;
+  for (std::size_t i = 1; i < trajectory.size(); ++i) {
+    const double dt_s = 1e-6 * static_cast<double>(trajectory.times_us()[i] - trajectory.times_us()[i - 1]);
+    const double step_m = (trajectory.poses()[i].translation() - trajectory.poses()[i - 1].translation()).norm();
+    if (step_m < options.standing_speed_m_s * dt_s) summary->standing_still_s += dt_s;
+  }
+}
+
+// One lidar's scans (read when options.read_contents; tick after each), and
+// the travelled distance of those inside the trajectory (*distances_m, sorted
+// as the times are).
+LidarSummary SummariseLidar(const LidarInfo& lidar, const std::vector<SensorFile>& files,
+                            const Trajectory& trajectory, const SummaryOptions& options,
+                            const std::function<void()>& tick, std::vector<double>* distances_m) {
+  LidarSummary s;
+  s.name = lidar.name;
+  s.scans = files.size();
+  s.span = SpanOf(files);
+  s.rate_hz = RateHz(files);
+  s.contents_read = options.read_contents;
+  std::vector<std::size_t> counts;
+  counts.reserve(files.size());
+  for (const SensorFile& file : files) {
+    if (options.read_contents) {
+      const LidarScan scan = ReadScan(file);
+      counts.push_back(scan.points.size());
+      s.no_returns += scan.no_returns;
+      tick();
+    } else {
+      counts.push_back(ScanRecordCount(file));
+    }
+    if (InsideTrajectory(trajectory, file.t_us)) {
+      distances_m->push_back(trajectory.DistanceAt(file.t_us));
+    } else {
+      ++s.outside_trajectory;
+    }
+  }
+  if (!counts.empty()) {
+    std::vector<std::size_t> sorted = counts;
+    std::sort(sorted.begin(), sorted.end());
+    s.points_min = sorted.front();
+    s.points_max = sorted.back();
+    s.points_median = sorted[sorted.size() / 2];
+    for (const std::size_t c : counts) s.points_total += c;
+  }
+  return s;
+}
+
+// One camera's images (decoded when options.read_contents, tick after each;
+// else their header sizes checked) and which have a scan of each lidar nearby
+// (scan_distances_m: per lidar, as SummariseLidar gives them).
+CameraSummary SummariseCamera(const CameraInfo& camera, const std::vector<SensorFile>& files,
+                              const std::vector<std::vector<double>>& scan_distances_m, const Trajectory& trajectory,
+                              const SummaryOptions& options, const std::function<void()>& tick) {
+  CameraSummary s;
+  s.name = camera.name;
+  s.with_scans_of_lidar.assign(scan_distances_m.size(), 0);
+  s.images = files.size();
+  s.span = SpanOf(files);
+  s.rate_hz = RateHz(files);
+  for (const SensorFile& file : files) {
+    if (options.read_contents) {
+      ReadImage(file, camera.model);
+      tick();
+    } else if (const auto size = ImageFileSize(file.path);
+               size && (size->first != camera.model.width || size->second != camera.model.height)) {
+      throw InputError(fmt::format("{}: image size: {} x {} pixels; expected {} x {} pixels as in rig.yaml",
+                                   file.path.string(), size->first, size->second, camera.model.width,
+                                   camera.model.height));
+    }
+    if (!InsideTrajectory(trajectory, file.t_us)) {
+      ++s.outside_trajectory;
+      continue;
+    }
+    const double d = trajectory.DistanceAt(file.t_us);
+    bool any = false;
+    for (std::size_t l = 0; l < scan_distances_m.size(); ++l) {
+      const std::vector<double>& distances = scan_distances_m[l];
+      const auto first = std::lower_bound(distances.begin(), distances.end(), d - options.nearby_distance_m);
+      if (first != distances.end() && *first <= d + options.nearby_distance_m) {
+        ++s.with_scans_of_lidar[l];
+        any = true;
+      }
+    }
+    if (any) ++s.with_scans_nearby;
+  }
+  return s;
+}
+
+// Verdict: every lidar needs at least one image (of any camera) with one of
+// its scans nearby; cameras without such images are left out (a warning).
+void AddVerdict(const SummaryOptions& options, DatasetSummary* summary) {
+  const std::string nearby = summary->static_dataset
+                                 ? std::string("at the same time (static dataset)")
+                                 : fmt::format("within {:g} m of travel", options.nearby_distance_m);
+  for (std::size_t l = 0; l < summary->lidars.size(); ++l) {
+    const LidarSummary& lidar = summary->lidars[l];
+    std::size_t usable = 0;
+    for (const CameraSummary& camera : summary->cameras) usable += camera.with_scans_of_lidar[l];
+    if (lidar.scans == 0) {
+      summary->problems.push_back(fmt::format("lidar '{}' has no scans (lidars/{}/ is missing or empty)", lidar.name,
+                                              lidar.name));
+    } else if (lidar.scans == lidar.outside_trajectory) {
+      summary->problems.push_back(fmt::format("all {} scans of lidar '{}' lie outside the trajectory's time span",
+                                              lidar.scans, lidar.name));
+    } else if (usable == 0) {
+      summary->problems.push_back(
+          fmt::format("no image of any camera has a scan of lidar '{}' {}", lidar.name, nearby));
+    } else if (options.read_contents && lidar.points_total == 0) {
+      summary->problems.push_back(fmt::format("every scan of lidar '{}' is empty (no finite points)", lidar.name));
+    }
+    if (lidar.outside_trajectory > 0 && lidar.outside_trajectory < lidar.scans) {
+      summary->warnings.push_back(
+          fmt::format("{} of {} scans of lidar '{}' lie outside the trajectory and are left out",
+                      lidar.outside_trajectory, lidar.scans, lidar.name));
+    }
+  }
+  for (const CameraSummary& camera : summary->cameras) {
+    if (camera.images == 0) {
+      summary->warnings.push_back(fmt::format("camera '{}' has no images; it will not take part", camera.name));
+    } else if (camera.with_scans_nearby == 0) {
+      summary->warnings.push_back(
+          fmt::format("no image of camera '{}' has a lidar scan {}; it will not take part", camera.name, nearby));
+    }
+    if (camera.outside_trajectory > 0) {
+      summary->warnings.push_back(
+          fmt::format("{} of {} images of camera '{}' lie outside the trajectory and are left out",
+                      camera.outside_trajectory, camera.images, camera.name));
+    }
+  }
+  summary->can_calibrate = summary->problems.empty();
+}
+
 }  // namespace
 
 DatasetSummary SummariseDataset(const Dataset& dataset, const SummaryOptions& options,
                                 const std::function<void(std::size_t, std::size_t)>& progress) {
   const Rig& rig = dataset.rig;
-  const Trajectory& trajectory = dataset.trajectory;
   DatasetSummary summary;
   summary.contents_read = options.read_contents;
   summary.nearby_distance_m = options.nearby_distance_m;
   summary.ground_truth = dataset.ground_truth.has_value();
-  summary.trajectory_rows = trajectory.size();
-  summary.static_dataset = trajectory.size() == 1;
-  if (!trajectory.empty()) {
-    summary.trajectory_span = {trajectory.times_us().front(), trajectory.times_us().back()};
-    summary.distance_m = trajectory.TotalDistance();
-    const double duration_s = summary.trajectory_span.DurationS();
-    summary.mean_speed_m_s = duration_s > 0 ? summary.distance_m / duration_s : 0.0;
-    for (std::size_t i = 1; i < trajectory.size(); ++i) {
-      const double dt_s = 1e-6 * static_cast<double>(trajectory.times_us()[i] - trajectory.times_us()[i - 1]);
-      const double step_m = (trajectory.poses()[i].translation() - trajectory.poses()[i - 1].translation()).norm();
-      if (step_m < options.standing_speed_m_s * dt_s) summary.standing_still_s += dt_s;
-    }
-  }
+  SummariseTrajectory(dataset.trajectory, options, &summary);
 
   // Contents: every image and scan is read, so that every problem surfaces now.
   std::size_t total = 0, done = 0;
   for (const auto& [name, files] : dataset.images) total += files.size();
   for (const auto& [name, files] : dataset.scans) total += files.size();
-  const auto tick = [&] {
+  const std::function<void()> tick = [&] {
     ++done;
     if (progress) progress(done, total);
   };
 
   // Lidars first: their scan distances along the trajectory decide "nearby".
-  std::vector<std::vector<double>> scan_distances_m;  // per lidar, of scans inside the trajectory (sorted)
-  for (const LidarInfo& lidar : rig.lidars) {
-    LidarSummary s;
-    s.name = lidar.name;
-    const auto it = dataset.scans.find(lidar.name);
-    const std::vector<SensorFile> no_files;
-    const std::vector<SensorFile>& files = it == dataset.scans.end() ? no_files : it->second;
-    s.scans = files.size();
-    s.span = SpanOf(files);
-    s.rate_hz = RateHz(files);
-    s.contents_read = options.read_contents;
-    std::vector<std::size_t> counts;
-    counts.reserve(files.size());
-    std::vector<double> distances;
-    for (const SensorFile& file : files) {
-      if (options.read_contents) {
-        const LidarScan scan = ReadScan(file);
-        counts.push_back(scan.points.size());
-        s.no_returns += scan.no_returns;
-        tick();
-      } else {
-        counts.push_back(ScanRecordCount(file));
-      }
-      if (InsideTrajectory(trajectory, file.t_us)) {
-        distances.push_back(trajectory.DistanceAt(file.t_us));
-      } else {
-        ++s.outside_trajectory;
-      }
-    }
-    if (!counts.empty()) {
-      std::vector<std::size_t> sorted = counts;
-      std::sort(sorted.begin(), sorted.end());
-      s.points_min = sorted.front();
-      s.points_max = sorted.back();
-      s.points_median = sorted[sorted.size() / 2];
-      for (const std::size_t c : counts) s.points_total += c;
-    }
-    scan_distances_m.push_back(std::move(distances));  // times sorted -> distances non-decreasing
-    summary.lidars.push_back(std::move(s));
-  }
-
-  for (const CameraInfo& camera : rig.cameras) {
-    CameraSummary s;
-    s.name = camera.name;
-    s.with_scans_of_lidar.assign(rig.lidars.size(), 0);
-    const auto it = dataset.images.find(camera.name);
-    const std::vector<SensorFile> no_files;
-    const std::vector<SensorFile>& files = it == dataset.images.end() ? no_files : it->second;
-    s.images = files.size();
-    s.span = SpanOf(files);
-    s.rate_hz = RateHz(files);
-    for (const SensorFile& file : files) {
-      if (options.read_contents) {
-        ReadImage(file, camera.model);
-        tick();
-      } else if (const auto size = ImageFileSize(file.path);
-                 size && (size->first != camera.model.width || size->second != camera.model.height)) {
-        throw InputError(fmt::format("{}: image size: {} x {} pixels; expected {} x {} pixels as in rig.yaml",
-                                     file.path.string(), size->first, size->second, camera.model.width,
-                                     camera.model.height));
-      }
-      if (!InsideTrajectory(trajectory, file.t_us)) {
-        ++s.outside_trajectory;
-        continue;
-      }
-      const double d = trajectory.DistanceAt(file.t_us);
-      bool any = false;
-      for (std::size_t l = 0; l < rig.lidars.size(); ++l) {
-        const std::vector<double>& distances = scan_distances_m[l];
-        const auto first = std::lower_bound(distances.begin(), distances.end(), d - options.nearby_distance_m);
-        if (first != distances.end() && *first <= d + options.nearby_distance_m) {
-          ++s.with_scans_of_lidar[l];
-          any = true;
-        }
-      }
-      if (any) ++s.with_scans_nearby;
-    }
-    summary.cameras.push_back(std::move(s));
-  }
-
-  // Verdict: every lidar needs at least one image (of any camera) with one of
-  // its scans nearby; cameras without such images are left out (a warning).
-  const std::string nearby = summary.static_dataset
-                                 ? std::string("at the same time (static dataset)")
-                                 : fmt::format("within {:g} m of travel", options.nearby_distance_m);
+  std::vector<std::vector<double>> scan_distances_m(rig.lidars.size());  // per lidar, of scans inside the trajectory
   for (std::size_t l = 0; l < rig.lidars.size(); ++l) {
-    const LidarSummary& lidar = summary.lidars[l];
-    std::size_t usable = 0;
-    for (const CameraSummary& camera : summary.cameras) usable += camera.with_scans_of_lidar[l];
-    if (lidar.scans == 0) {
-      summary.problems.push_back(fmt::format("lidar '{}' has no scans (lidars/{}/ is missing or empty)", lidar.name,
-                                             lidar.name));
-    } else if (lidar.scans == lidar.outside_trajectory) {
-      summary.problems.push_back(fmt::format("all {} scans of lidar '{}' lie outside the trajectory's time span",
-                                             lidar.scans, lidar.name));
-    } else if (usable == 0) {
-      summary.problems.push_back(
-          fmt::format("no image of any camera has a scan of lidar '{}' {}", lidar.name, nearby));
-    } else if (options.read_contents && lidar.points_total == 0) {
-      summary.problems.push_back(fmt::format("every scan of lidar '{}' is empty (no finite points)", lidar.name));
-    }
-    if (lidar.outside_trajectory > 0 && lidar.outside_trajectory < lidar.scans) {
-      summary.warnings.push_back(fmt::format("{} of {} scans of lidar '{}' lie outside the trajectory and are left out",
-                                             lidar.outside_trajectory, lidar.scans, lidar.name));
-    }
+    const LidarInfo& lidar = rig.lidars[l];
+    summary.lidars.push_back(SummariseLidar(lidar, FilesOf(dataset.scans, lidar.name), dataset.trajectory, options,
+                                            tick, &scan_distances_m[l]));
   }
-  for (const CameraSummary& camera : summary.cameras) {
-    if (camera.images == 0) {
-      summary.warnings.push_back(fmt::format("camera '{}' has no images; it will not take part", camera.name));
-    } else if (camera.with_scans_nearby == 0) {
-      summary.warnings.push_back(
-          fmt::format("no image of camera '{}' has a lidar scan {}; it will not take part", camera.name, nearby));
-    }
-    if (camera.outside_trajectory > 0) {
-      summary.warnings.push_back(fmt::format("{} of {} images of camera '{}' lie outside the trajectory and are left out",
-                                             camera.outside_trajectory, camera.images, camera.name));
-    }
+  for (const CameraInfo& camera : rig.cameras) {
+    summary.cameras.push_back(SummariseCamera(camera, FilesOf(dataset.images, camera.name), scan_distances_m,
+                                              dataset.trajectory, options, tick));
   }
-  summary.can_calibrate = summary.problems.empty();
+  AddVerdict(options, &summary);
   return summary;
 }
 

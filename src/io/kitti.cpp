@@ -191,8 +191,8 @@ SensorSeries ReadSensorSeries(const fs::path& drive_dir, const std::string& fold
     return series;
   }
   series.times = ParseKittiTimestamps(detail::ReadTextFile(series.timestamps_file, kMaxTextBytes), file);
-  const std::size_t with_time =
-      static_cast<std::size_t>(std::count_if(series.times.begin(), series.times.end(), [](const auto& t) { return t.has_value(); }));
+  const std::size_t with_time = static_cast<std::size_t>(
+      std::count_if(series.times.begin(), series.times.end(), [](const auto& t) { return t.has_value(); }));
 
   // Every line with a time has its data file, and there are no others.
   std::size_t files = 0;
@@ -201,7 +201,8 @@ SensorSeries ReadSensorSeries(const fs::path& drive_dir, const std::string& fold
   }
   if (files != with_time) {
     Fail(data_dir.string(), "data files",
-         fmt::format("{} {} files for {} timestamps ({} lines in {})", files, extension, with_time, series.times.size(), file),
+         fmt::format("{} {} files for {} timestamps ({} lines in {})", files, extension, with_time,
+                     series.times.size(), file),
          "one data file per non-empty line of timestamps.txt");
   }
   for (std::size_t i = 0; i < series.times.size(); ++i) {
@@ -400,20 +401,11 @@ bool KittiImportOptions::IsValid(std::string* why) const {
 
 // ---- import ---------------------------------------------------------------------------
 
-KittiImportSummary ImportKitti(const fs::path& drive_dir_in, const fs::path& output,
-                               const KittiImportOptions& options) {
-  std::error_code error;
-  fs::path drive_dir = fs::absolute(drive_dir_in).lexically_normal();
-  if (!drive_dir.has_filename()) drive_dir = drive_dir.parent_path();  // "drive/" -> "drive"
-  const std::string layout_hint =
-      "a KITTI raw synced drive folder (image_0i/, oxts/, velodyne_points/, each with timestamps.txt and data/)";
-  if (!fs::is_directory(drive_dir, error)) Fail(drive_dir.string(), "drive", "not a directory", layout_hint);
-  std::string why;
-  if (!options.IsValid(&why)) Fail(drive_dir.string(), "options", why, "valid import options");
-  const fs::path target = CheckOutputFolder(output, options.overwrite);
+namespace {
 
-  // Cameras: as asked, or every image_0i folder present.
-  std::vector<int> cameras = options.cameras;
+// The cameras to import (indices 0..3): as asked, or every image_0i folder present; sorted.
+std::vector<int> ChooseCameras(const fs::path& drive_dir, std::vector<int> cameras, const std::string& layout_hint) {
+  std::error_code error;
   if (cameras.empty()) {
     for (int index = 0; index < 4; ++index) {
       if (fs::is_directory(drive_dir / CameraName(index), error)) cameras.push_back(index);
@@ -432,32 +424,42 @@ KittiImportSummary ImportKitti(const fs::path& drive_dir_in, const fs::path& out
     }
   }
   std::sort(cameras.begin(), cameras.end());
+  return cameras;
+}
 
-  // Everything is read and checked before anything is written.
-  KittiImportSummary summary;
-  const KittiCalibration calibration = ReadKittiCalibration(drive_dir, cameras);
+// The drive's sensor folders, on one clock and with one entry per frame each.
+struct DriveSeries {
+  std::optional<SensorSeries> oxts;  // none: no oxts/, the trajectory comes from the scans
+  SensorSeries velodyne;
+  std::vector<SensorSeries> images;  // one per imported camera, in the order of the camera indices
+  bool synthetic_times = false;      // a folder lacks timestamps.txt: every sensor at 10 Hz by frame index
+  std::size_t frames = 0;            // frames of the drive
+};
+
+DriveSeries ReadDriveSeries(const fs::path& drive_dir, const std::vector<int>& cameras,
+                            const KittiImportOptions& options, std::vector<std::string>* without_timestamps) {
+  std::error_code error;
   // Without oxts/ the trajectory comes from the scans (options.trajectory_from_scans).
   const bool have_oxts = fs::exists(drive_dir / "oxts", error);
   if (!have_oxts && !options.trajectory_from_scans) {
     Fail((drive_dir / "oxts").string(), "folder", "missing", "oxts/ with the GPS/IMU records (the trajectory)");
   }
-  std::optional<SensorSeries> oxts;
-  if (have_oxts) oxts = ReadSensorSeries(drive_dir, "oxts", ".txt", "OXTS GPS/IMU records");
-  SensorSeries velodyne = ReadSensorSeries(drive_dir, "velodyne_points", ".bin", "velodyne scans");
-  std::vector<SensorSeries> images;
+  DriveSeries drive;
+  if (have_oxts) drive.oxts = ReadSensorSeries(drive_dir, "oxts", ".txt", "OXTS GPS/IMU records");
+  drive.velodyne = ReadSensorSeries(drive_dir, "velodyne_points", ".bin", "velodyne scans");
   for (const int index : cameras) {
-    images.push_back(ReadSensorSeries(drive_dir, CameraName(index), ".png", "rectified PNG images"));
+    drive.images.push_back(ReadSensorSeries(drive_dir, CameraName(index), ".png", "rectified PNG images"));
   }
-  std::vector<SensorSeries*> all{&velodyne};
-  if (oxts) all.push_back(&*oxts);
-  for (SensorSeries& camera : images) all.push_back(&camera);
+  std::vector<SensorSeries*> all{&drive.velodyne};
+  if (drive.oxts) all.push_back(&*drive.oxts);
+  for (SensorSeries& camera : drive.images) all.push_back(&camera);
   // One clock for all: if any folder lacks timestamps.txt, every sensor takes
   // its frame index at 10 Hz (a lost frame, an empty line, stays lost).
-  const bool synthetic_times =
+  drive.synthetic_times =
       std::any_of(all.begin(), all.end(), [](const SensorSeries* series) { return series->without_timestamps; });
   for (SensorSeries* series : all) {
-    if (series->without_timestamps) summary.without_timestamps.push_back(series->folder);
-    if (!synthetic_times) continue;
+    if (series->without_timestamps) without_timestamps->push_back(series->folder);
+    if (!drive.synthetic_times) continue;
     for (std::size_t k = 0; k < series->times.size(); ++k) {
       if (series->times[k]) series->times[k] = static_cast<TimeUs>(k) * kSyntheticFramePeriodUs;
     }
@@ -465,19 +467,31 @@ KittiImportSummary ImportKitti(const fs::path& drive_dir_in, const fs::path& out
   // A synced drive numbers the frames of every sensor alike (a lost frame
   // keeps its empty line), so the line counts agree. Without timestamps.txt a
   // folder's count is its highest frame index (a lost last frame cannot show).
-  const SensorSeries& reference = oxts ? *oxts : velodyne;
-  const std::size_t frames = reference.times.size();
-  if (frames == 0)
+  const SensorSeries& reference = drive.oxts ? *drive.oxts : drive.velodyne;
+  drive.frames = reference.times.size();
+  if (drive.frames == 0) {
     Fail(reference.timestamps_file.string(), "frames", "none (empty file)", "at least one frame: an empty drive");
+  }
   for (SensorSeries* series : all) {
-    const bool may_be_short = series->without_timestamps && series->times.size() < frames;
-    if (series->times.size() != frames && !may_be_short) {
+    const bool may_be_short = series->without_timestamps && series->times.size() < drive.frames;
+    if (series->times.size() != drive.frames && !may_be_short) {
       Fail(series->timestamps_file.string(), "lines",
-           fmt::format("{} lines, but {} has {}", series->times.size(), reference.timestamps_file.string(), frames),
+           fmt::format("{} lines, but {} has {}", series->times.size(), reference.timestamps_file.string(),
+                       drive.frames),
            "as many lines as every other sensor of the synced drive (one per frame)");
     }
-    series->times.resize(frames);
+    series->times.resize(drive.frames);
   }
+  return drive;
+}
+
+// The frames imported: [first, end).
+struct FrameRange {
+  std::size_t first = 0;
+  std::size_t end = 0;  // one past the last frame imported
+};
+
+FrameRange SelectFrames(const fs::path& drive_dir, const KittiImportOptions& options, std::size_t frames) {
   const std::size_t first = options.first;
   const std::size_t count = options.count.value_or(first < frames ? frames - first : 0);
   if (first >= frames || count > frames - first) {
@@ -485,170 +499,185 @@ KittiImportSummary ImportKitti(const fs::path& drive_dir_in, const fs::path& out
          fmt::format("frames {}..{} asked for", first, first + std::max<std::size_t>(count, 1) - 1),
          fmt::format("frames within 0..{} (the drive has {})", frames - 1, frames));
   }
-  const std::size_t end = first + count;  // one past the last frame imported
+  return {first, first + count};
+}
 
-  summary.first_frame = first;
-  summary.frames = count;
-  summary.calibration_dir = calibration.directory;
+// The rig's extrinsics from the calibration files (the conventions of ImportKitti, kitti.hpp).
+struct DriveExtrinsics {
+  std::array<Eigen::Vector3d, 4> t_cami_cam0;  // metres, by camera index (the imported cameras only)
+  Eigen::Isometry3d T_base_velo;
+  Eigen::Isometry3d T_imu_base;
+};
 
-  // Extrinsics. Rectified camera i: T_cami_cam0 = [I | K_i^-1 * P_rect_0i(:, 3)].
-  std::array<Eigen::Vector3d, 4> t_cami_cam0;  // metres
+DriveExtrinsics ComputeExtrinsics(const KittiCalibration& calibration, const std::vector<int>& cameras) {
+  DriveExtrinsics extrinsics;
+  // Rectified camera i: T_cami_cam0 = [I | K_i^-1 * P_rect_0i(:, 3)].
   for (const int index : cameras) {
     const Eigen::Matrix<double, 3, 4>& p = *calibration.P_rect[static_cast<std::size_t>(index)];
-    t_cami_cam0[static_cast<std::size_t>(index)] = p.leftCols<3>().inverse() * p.col(3);
+    extrinsics.t_cami_cam0[static_cast<std::size_t>(index)] = p.leftCols<3>().inverse() * p.col(3);
   }
   const int base_index = cameras.front();
   Eigen::Isometry3d T_base_cam0rect = Eigen::Isometry3d::Identity();
-  T_base_cam0rect.translation() = t_cami_cam0[static_cast<std::size_t>(base_index)];
+  T_base_cam0rect.translation() = extrinsics.t_cami_cam0[static_cast<std::size_t>(base_index)];
   Eigen::Isometry3d R_rect = Eigen::Isometry3d::Identity();  // unrectified -> rectified camera 0
   R_rect.linear() = calibration.R_rect_00;
   const Eigen::Isometry3d T_cam0rect_velo = R_rect * calibration.T_cam0_velo;
-  const Eigen::Isometry3d T_base_velo = T_base_cam0rect * T_cam0rect_velo;
-  const Eigen::Isometry3d T_imu_base = (T_base_velo * calibration.T_velo_imu).inverse();
+  extrinsics.T_base_velo = T_base_cam0rect * T_cam0rect_velo;
+  extrinsics.T_imu_base = (extrinsics.T_base_velo * calibration.T_velo_imu).inverse();
+  return extrinsics;
+}
 
-  Rig rig;
-  rig.base_frame = CameraName(base_index);
-  std::vector<std::vector<SensorFile>> image_files(images.size());
-  for (std::size_t c = 0; c < images.size(); ++c) {
-    const int index = cameras[c];
-    for (std::size_t frame = first; frame < end; ++frame) {
-      if (images[c].times[frame])
-        image_files[c].push_back({*images[c].times[frame], images[c].DataFile(frame)});
-      else
-        ++summary.lost;
-    }
-    if (image_files[c].empty()) {
-      Fail(images[c].timestamps_file.string(), "frames", fmt::format("no image in frames {}..{}", first, end - 1),
-           "at least one image per camera");
-    }
-    const fs::path& first_image = image_files[c].front().path;
-    const auto size = ImageFileSize(first_image);
-    if (!size) Fail(first_image.string(), "image", "not a readable PNG header", "a PNG image");
-    CameraInfo camera;
-    camera.name = CameraName(index);
-    const Eigen::Matrix<double, 3, 4>& p = *calibration.P_rect[static_cast<std::size_t>(index)];
-    camera.model.width = size->first;
-    camera.model.height = size->second;
-    camera.model.kind = CameraModelKind::kPinhole;  // rectified: no distortion
-    camera.model.fx = p(0, 0);
-    camera.model.fy = p(1, 1);
-    camera.model.cx = p(0, 2);
-    camera.model.cy = p(1, 2);
-    if (!camera.model.IsValid(&why)) {
-      Fail((calibration.directory / kCamToCam).string(), fmt::format("P_rect_{:02d}", index), "invalid camera: " + why,
-           "a valid pinhole camera");
-    }
-    // T_base_cami = T_camb_cam0 * T_cami_cam0^-1: translations only.
-    camera.T_base_camera.translation() =
-        t_cami_cam0[static_cast<std::size_t>(base_index)] - t_cami_cam0[static_cast<std::size_t>(index)];
-    ReadImage(image_files[c].front(), camera.model);  // decodes it: a corrupt image fails here
-    for (const SensorFile& file : image_files[c]) {   // headers only: sizes must agree
-      ThrowIfInterrupted();
-      const auto other = ImageFileSize(file.path);
-      if (!other) Fail(file.path.string(), "image", "not a readable PNG header", "a PNG image");
-      if (*other != *size) {
-        Fail(file.path.string(), "image size", fmt::format("{} x {} pixels", other->first, other->second),
-             fmt::format("{} x {} pixels as the first image {}", size->first, size->second, first_image.string()));
-      }
-    }
-    rig.cameras.push_back(camera);
-    summary.cameras.push_back(camera.name);
+// Camera image_0i of the rig, and its image files in the frame range (frames
+// without a time are counted in *lost). The first image is decoded and every
+// other one's header must give the same size.
+CameraInfo ImportCamera(const SensorSeries& series, int index, int base_index, const KittiCalibration& calibration,
+                        const DriveExtrinsics& extrinsics, FrameRange range, std::vector<SensorFile>* files,
+                        std::size_t* lost) {
+  for (std::size_t frame = range.first; frame < range.end; ++frame) {
+    if (series.times[frame])
+      files->push_back({*series.times[frame], series.DataFile(frame)});
+    else
+      ++*lost;
   }
-  LidarInfo lidar;
-  lidar.name = kLidarName;
-  lidar.kind = LidarKind::k3d;
-  lidar.T_base_lidar = T_base_velo;
-  rig.lidars.push_back(lidar);
+  if (files->empty()) {
+    Fail(series.timestamps_file.string(), "frames",
+         fmt::format("no image in frames {}..{}", range.first, range.end - 1), "at least one image per camera");
+  }
+  const fs::path& first_image = files->front().path;
+  const auto size = ImageFileSize(first_image);
+  if (!size) Fail(first_image.string(), "image", "not a readable PNG header", "a PNG image");
+  CameraInfo camera;
+  camera.name = CameraName(index);
+  const Eigen::Matrix<double, 3, 4>& p = *calibration.P_rect[static_cast<std::size_t>(index)];
+  camera.model.width = size->first;
+  camera.model.height = size->second;
+  camera.model.kind = CameraModelKind::kPinhole;  // rectified: no distortion
+  camera.model.fx = p(0, 0);
+  camera.model.fy = p(1, 1);
+  camera.model.cx = p(0, 2);
+  camera.model.cy = p(1, 2);
+  std::string why;
+  if (!camera.model.IsValid(&why)) {
+    Fail((calibration.directory / kCamToCam).string(), fmt::format("P_rect_{:02d}", index), "invalid camera: " + why,
+         "a valid pinhole camera");
+  }
+  // T_base_cami = T_camb_cam0 * T_cami_cam0^-1: translations only.
+  camera.T_base_camera.translation() = extrinsics.t_cami_cam0[static_cast<std::size_t>(base_index)] -
+                                       extrinsics.t_cami_cam0[static_cast<std::size_t>(index)];
+  ReadImage(files->front(), camera.model);  // decodes it: a corrupt image fails here
+  for (const SensorFile& file : *files) {   // headers only: sizes must agree
+    ThrowIfInterrupted();
+    const auto other = ImageFileSize(file.path);
+    if (!other) Fail(file.path.string(), "image", "not a readable PNG header", "a PNG image");
+    if (*other != *size) {
+      Fail(file.path.string(), "image size", fmt::format("{} x {} pixels", other->first, other->second),
+           fmt::format("{} x {} pixels as the first image {}", size->first, size->second, first_image.string()));
+    }
+  }
+  return camera;
+}
 
+// The velodyne scans in the frame range (frames without a time are counted in
+// *lost), each of a valid size.
+std::vector<SensorFile> ScanFilesInRange(const SensorSeries& velodyne, FrameRange range, std::size_t* lost) {
   std::vector<SensorFile> scan_files;
-  for (std::size_t frame = first; frame < end; ++frame) {
+  for (std::size_t frame = range.first; frame < range.end; ++frame) {
     if (velodyne.times[frame])
       scan_files.push_back({*velodyne.times[frame], velodyne.DataFile(frame)});
     else
-      ++summary.lost;
+      ++*lost;
   }
   if (scan_files.empty()) {
-    Fail(velodyne.timestamps_file.string(), "frames", fmt::format("no scan in frames {}..{}", first, end - 1),
-         "at least one velodyne scan");
+    Fail(velodyne.timestamps_file.string(), "frames",
+         fmt::format("no scan in frames {}..{}", range.first, range.end - 1), "at least one velodyne scan");
   }
   for (const SensorFile& file : scan_files) ScanRecordCount(file);  // size a multiple of 16
+  return scan_files;
+}
 
+// T_world_base at the OXTS records of the frame range plus one neighbouring
+// record on each side (frames of the range without a time are counted in *lost).
+Trajectory OxtsTrajectory(const SensorSeries& oxts, std::size_t frames, FrameRange range,
+                          const Eigen::Isometry3d& T_imu_base, std::size_t* lost) {
+  const std::optional<std::size_t> first_record = [&]() -> std::optional<std::size_t> {
+    for (std::size_t frame = 0; frame < frames; ++frame) {
+      if (oxts.times[frame]) return frame;
+    }
+    return std::nullopt;
+  }();
+  if (!first_record) Fail(oxts.timestamps_file.string(), "frames", "no line with a time", "at least one OXTS record");
+  const double lat0 = ReadOxts(oxts.DataFile(*first_record)).lat;  // the devkit's scale: the drive's first record
   std::vector<TimeUs> pose_times;
-  std::vector<Eigen::Isometry3d> T_world_base;
-  if (oxts) {
-    // Trajectory: the range plus one neighbouring record on each side.
-    const std::optional<std::size_t> first_record = [&]() -> std::optional<std::size_t> {
-      for (std::size_t frame = 0; frame < frames; ++frame) {
-        if (oxts->times[frame]) return frame;
-      }
-      return std::nullopt;
-    }();
-    if (!first_record) Fail(oxts->timestamps_file.string(), "frames", "no line with a time", "at least one OXTS record");
-    const double lat0 = ReadOxts(oxts->DataFile(*first_record)).lat;  // the devkit's scale: the drive's first record
-    std::vector<Eigen::Isometry3d> T_world_imu;
-    const std::size_t from = first > 0 ? first - 1 : 0;
-    const std::size_t to = std::min(end + 1, frames);
-    for (std::size_t frame = from; frame < to; ++frame) {
-      if (!oxts->times[frame]) {
-        if (frame >= first && frame < end) ++summary.lost;
-        continue;
-      }
-      pose_times.push_back(*oxts->times[frame]);
-      T_world_imu.push_back(ImuPoseFromOxts(ReadOxts(oxts->DataFile(frame)), lat0));
+  std::vector<Eigen::Isometry3d> T_world_imu;
+  const std::size_t from = range.first > 0 ? range.first - 1 : 0;
+  const std::size_t to = std::min(range.end + 1, frames);
+  for (std::size_t frame = from; frame < to; ++frame) {
+    if (!oxts.times[frame]) {
+      if (frame >= range.first && frame < range.end) ++*lost;
+      continue;
     }
-    if (pose_times.empty()) {
-      Fail(oxts->timestamps_file.string(), "frames", fmt::format("no OXTS record in frames {}..{}", from, to - 1),
-           "at least one OXTS record in the range");
-    }
-    // Mercator coordinates are ~1e6 m: move the origin to the first record so
-    // the numbers in trajectory.csv stay small (the rotation is untouched).
-    const Eigen::Vector3d origin = T_world_imu.front().translation();
-    for (Eigen::Isometry3d pose : T_world_imu) {
-      pose.translation() -= origin;
-      T_world_base.push_back(pose * T_imu_base);
-    }
-  } else {
-    // No GPS/IMU: the caller's trajectory from the scans (lidar odometry).
-    const Trajectory from_scans = options.trajectory_from_scans(scan_files, T_base_velo);
-    if (from_scans.size() < 2) {
-      Fail((drive_dir / "velodyne_points").string(), "trajectory", "none could be made from the scans",
-           "a trajectory from the velodyne scans (no oxts/)");
-    }
-    pose_times = from_scans.times_us();
-    T_world_base = from_scans.poses();
-    summary.trajectory_from_scans = true;
+    pose_times.push_back(*oxts.times[frame]);
+    T_world_imu.push_back(ImuPoseFromOxts(ReadOxts(oxts.DataFile(frame)), lat0));
   }
+  if (pose_times.empty()) {
+    Fail(oxts.timestamps_file.string(), "frames", fmt::format("no OXTS record in frames {}..{}", from, to - 1),
+         "at least one OXTS record in the range");
+  }
+  // Mercator coordinates are ~1e6 m: move the origin to the first record so
+  // the numbers in trajectory.csv stay small (the rotation is untouched).
+  const Eigen::Vector3d origin = T_world_imu.front().translation();
+  std::vector<Eigen::Isometry3d> T_world_base;
+  for (Eigen::Isometry3d pose : T_world_imu) {
+    pose.translation() -= origin;
+    T_world_base.push_back(pose * T_imu_base);
+  }
+  return Trajectory(std::move(pose_times), std::move(T_world_base));
+}
 
-  std::size_t total = scan_files.size();
-  for (const std::vector<SensorFile>& files : image_files) total += files.size();
+// No GPS/IMU: the caller's trajectory from the scans (lidar odometry).
+Trajectory TrajectoryFromScans(const fs::path& drive_dir, const std::vector<SensorFile>& scan_files,
+                               const Eigen::Isometry3d& T_base_velo, const KittiImportOptions& options) {
+  Trajectory from_scans = options.trajectory_from_scans(scan_files, T_base_velo);
+  if (from_scans.size() < 2) {
+    Fail((drive_dir / "velodyne_points").string(), "trajectory", "none could be made from the scans",
+         "a trajectory from the velodyne scans (no oxts/)");
+  }
+  return from_scans;
+}
 
-  StagedOutput staged(target);
-  const fs::path& root = staged.Staging();
+// rig.yaml's `extra:`: where the dataset came from and how it was converted.
+YAML::Node ImportNotes(const fs::path& drive_dir, const KittiCalibration& calibration, FrameRange range,
+                       const DriveSeries& drive, const std::vector<std::string>& without_timestamps) {
   YAML::Node extra;
   extra["source"] = "kitti";
   extra["source_dir"] = drive_dir.string();
   extra["calibration_dir"] = calibration.directory.string();
-  extra["frames"].push_back(first);
-  extra["frames"].push_back(end - 1);
+  extra["frames"].push_back(range.first);
+  extra["frames"].push_back(range.end - 1);
   extra["frames"].SetStyle(YAML::EmitterStyle::Flow);
   extra["cameras"] =
       "rectified KITTI cameras: pinhole from P_rect_0i, T_base_camera from P_rect_0i's last column (translation only)";
   extra["trajectory"] =
-      oxts ? "OXTS poses by the devkit's Mercator conversion (scale from the drive's first record), world x east, "
-             "y north, z up, origin at the first written record"
-           : "no oxts/: estimated from the velodyne scans (lidar odometry), world = the base frame at the first scan";
-  if (synthetic_times) {
-    extra["times"] = "no timestamps.txt in " + fmt::format("{}", fmt::join(summary.without_timestamps, ", ")) +
+      drive.oxts
+          ? "OXTS poses by the devkit's Mercator conversion (scale from the drive's first record), world x east, "
+            "y north, z up, origin at the first written record"
+          : "no oxts/: estimated from the velodyne scans (lidar odometry), world = the base frame at the first scan";
+  if (drive.synthetic_times) {
+    extra["times"] = "no timestamps.txt in " + fmt::format("{}", fmt::join(without_timestamps, ", ")) +
                      ": frame k at k x 100 ms (10 Hz) for every sensor";
   }
   extra["ground_truth"] =
       "ground_truth.yaml holds KITTI's own reference extrinsic ([R_rect_00 | 0] * calib_velo_to_cam), found with "
       "targets; a reference, not exact truth";
-  WriteRig(root / "rig.yaml", rig, extra);
-  WriteTrajectory(root / "trajectory.csv", Trajectory(pose_times, T_world_base));
-  GroundTruth truth;
-  truth.T_base_lidar[kLidarName] = T_base_velo;
-  WriteGroundTruth(root / "ground_truth.yaml", truth);
+  return extra;
+}
+
+// Copies the images (cameras/<camera>/, in the order of rig.cameras) and the
+// scans (lidars/velodyne/) unchanged into the dataset at root, named by time.
+void CopySensorFiles(const fs::path& root, const Rig& rig, const std::vector<std::vector<SensorFile>>& image_files,
+                     const std::vector<SensorFile>& scan_files, const KittiImportOptions& options) {
+  std::size_t total = scan_files.size();
+  for (const std::vector<SensorFile>& files : image_files) total += files.size();
   std::size_t done = 0;
   const auto copy = [&](const SensorFile& file, const fs::path& folder) {
     ThrowIfInterrupted();  // StagedOutput's destructor then removes the partial copy
@@ -656,15 +685,69 @@ KittiImportSummary ImportKitti(const fs::path& drive_dir_in, const fs::path& out
     ++done;
     if (options.progress) options.progress(done, total);
   };
-  for (std::size_t c = 0; c < images.size(); ++c) {
+  for (std::size_t c = 0; c < image_files.size(); ++c) {
     const fs::path folder = root / "cameras" / rig.cameras[c].name;
     fs::create_directories(folder);
     for (const SensorFile& file : image_files[c]) copy(file, folder);
-    summary.images += image_files[c].size();
   }
   const fs::path lidar_folder = root / "lidars" / kLidarName;
   fs::create_directories(lidar_folder);
   for (const SensorFile& file : scan_files) copy(file, lidar_folder);
+}
+
+}  // namespace
+
+KittiImportSummary ImportKitti(const fs::path& drive_dir_in, const fs::path& output,
+                               const KittiImportOptions& options) {
+  std::error_code error;
+  fs::path drive_dir = fs::absolute(drive_dir_in).lexically_normal();
+  if (!drive_dir.has_filename()) drive_dir = drive_dir.parent_path();  // "drive/" -> "drive"
+  const std::string layout_hint =
+      "a KITTI raw synced drive folder (image_0i/, oxts/, velodyne_points/, each with timestamps.txt and data/)";
+  if (!fs::is_directory(drive_dir, error)) Fail(drive_dir.string(), "drive", "not a directory", layout_hint);
+  std::string why;
+  if (!options.IsValid(&why)) Fail(drive_dir.string(), "options", why, "valid import options");
+  const fs::path target = CheckOutputFolder(output, options.overwrite);
+  const std::vector<int> cameras = ChooseCameras(drive_dir, options.cameras, layout_hint);
+
+  // Everything is read and checked before anything is written.
+  KittiImportSummary summary;
+  const KittiCalibration calibration = ReadKittiCalibration(drive_dir, cameras);
+  const DriveSeries drive = ReadDriveSeries(drive_dir, cameras, options, &summary.without_timestamps);
+  const FrameRange range = SelectFrames(drive_dir, options, drive.frames);
+  summary.first_frame = range.first;
+  summary.frames = range.end - range.first;
+  summary.calibration_dir = calibration.directory;
+  const DriveExtrinsics extrinsics = ComputeExtrinsics(calibration, cameras);
+
+  Rig rig;
+  rig.base_frame = CameraName(cameras.front());
+  std::vector<std::vector<SensorFile>> image_files(drive.images.size());
+  for (std::size_t c = 0; c < drive.images.size(); ++c) {
+    rig.cameras.push_back(ImportCamera(drive.images[c], cameras[c], cameras.front(), calibration, extrinsics, range,
+                                       &image_files[c], &summary.lost));
+    summary.cameras.push_back(rig.cameras.back().name);
+  }
+  LidarInfo lidar;
+  lidar.name = kLidarName;
+  lidar.kind = LidarKind::k3d;
+  lidar.T_base_lidar = extrinsics.T_base_velo;
+  rig.lidars.push_back(lidar);
+  const std::vector<SensorFile> scan_files = ScanFilesInRange(drive.velodyne, range, &summary.lost);
+  const Trajectory trajectory =
+      drive.oxts ? OxtsTrajectory(*drive.oxts, drive.frames, range, extrinsics.T_imu_base, &summary.lost)
+                 : TrajectoryFromScans(drive_dir, scan_files, extrinsics.T_base_velo, options);
+  summary.trajectory_from_scans = !drive.oxts;
+
+  StagedOutput staged(target);
+  const fs::path& root = staged.Staging();
+  WriteRig(root / "rig.yaml", rig, ImportNotes(drive_dir, calibration, range, drive, summary.without_timestamps));
+  WriteTrajectory(root / "trajectory.csv", trajectory);
+  GroundTruth truth;
+  truth.T_base_lidar[kLidarName] = extrinsics.T_base_velo;
+  WriteGroundTruth(root / "ground_truth.yaml", truth);
+  CopySensorFiles(root, rig, image_files, scan_files, options);
+  for (const std::vector<SensorFile>& files : image_files) summary.images += files.size();
   summary.scans = scan_files.size();
   OpenDataset(root);  // the result must read back as a valid dataset
 
@@ -673,7 +756,7 @@ KittiImportSummary ImportKitti(const fs::path& drive_dir_in, const fs::path& out
 
   summary.dataset = target;
   summary.base_frame = rig.base_frame;
-  summary.poses = pose_times.size();
+  summary.poses = trajectory.size();
   return summary;
 }
 
