@@ -10,6 +10,7 @@
 
 #include "core/camera_kernel.hpp"
 #include "core/geometry.hpp"
+#include "core/validation.hpp"
 
 namespace scenecal {
 
@@ -208,29 +209,10 @@ double UndistortEquidistantAngle(const std::array<double, 5>& k, double theta_di
 }  // namespace
 
 bool ParseCameraModelKind(const std::string& name, CameraModelKind* kind) {
-  if (name == "pinhole") {
-    *kind = CameraModelKind::kPinhole;
-  } else if (name == "radtan") {
-    *kind = CameraModelKind::kRadTan;
-  } else if (name == "equidistant") {
-    *kind = CameraModelKind::kEquidistant;
-  } else {
-    return false;
-  }
-  return true;
+  return ParseEnumName(kCameraModelKindNames, name, kind);
 }
 
-const char* CameraModelKindName(CameraModelKind kind) {
-  switch (kind) {
-    case CameraModelKind::kPinhole:
-      return "pinhole";
-    case CameraModelKind::kRadTan:
-      return "radtan";
-    case CameraModelKind::kEquidistant:
-      return "equidistant";
-  }
-  return "unknown";
-}
+const char* CameraModelKindName(CameraModelKind kind) { return EnumName(kCameraModelKindNames, kind); }
 
 bool CameraModel::IsValid(std::string* why) const {
   std::ostringstream problem;
@@ -263,8 +245,7 @@ bool CameraModel::IsValid(std::string* why) const {
     }
   }
   if (problem.tellp() == 0) return true;
-  if (why != nullptr) *why = problem.str();
-  return false;
+  return Invalid(why, problem.str());
 }
 
 double CameraModel::MonotonicDistortionLimitSquared() const {

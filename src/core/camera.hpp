@@ -9,9 +9,14 @@
 
 #include <Eigen/Core>
 
+#include "core/enum_names.hpp"
+
 namespace scenecal {
 
 enum class CameraModelKind { kPinhole, kRadTan, kEquidistant };
+inline constexpr auto kCameraModelKindNames = MakeEnumNames<CameraModelKind>(
+    {{CameraModelKind::kPinhole, "pinhole"}, {CameraModelKind::kRadTan, "radtan"},
+     {CameraModelKind::kEquidistant, "equidistant"}});
 
 // "pinhole" | "radtan" | "equidistant"; returns false for anything else.
 bool ParseCameraModelKind(const std::string& name, CameraModelKind* kind);

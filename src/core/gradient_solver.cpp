@@ -15,36 +15,24 @@
 
 #include "core/interrupt.hpp"
 #include "core/pair_cost.hpp"
+#include "core/validation.hpp"
 
 namespace scenecal {
 
-const char* LowerSolverName(LowerSolver solver) {
-  switch (solver) {
-    case LowerSolver::kSimplex: return "simplex";
-    case LowerSolver::kLbfgs: return "lbfgs";
-  }
-  return "unknown";
-}
+const char* LowerSolverName(LowerSolver solver) { return EnumName(kLowerSolverNames, solver); }
 
 bool ParseLowerSolver(const std::string& name, LowerSolver* solver) {
-  if (name == "simplex") *solver = LowerSolver::kSimplex;
-  else if (name == "lbfgs") *solver = LowerSolver::kLbfgs;
-  else return false;
-  return true;
+  return ParseEnumName(kLowerSolverNames, name, solver);
 }
 
 bool GradientSolverOptions::IsValid(std::string* why) const {
-  const auto fail = [why](const std::string& message) {
-    if (why != nullptr) *why = message;
-    return false;
-  };
-  if (max_iterations < 1) return fail("max_iterations must be at least 1");
-  if (lbfgs_rank < 1) return fail("lbfgs_rank must be at least 1");
+  if (max_iterations < 1) return Invalid(why, "max_iterations must be at least 1");
+  if (lbfgs_rank < 1) return Invalid(why, "lbfgs_rank must be at least 1");
   if (!(function_tolerance >= 0.0) || !(gradient_tolerance >= 0.0) || !(parameter_tolerance >= 0.0))
-    return fail("tolerances must be >= 0");
+    return Invalid(why, "tolerances must be >= 0");
   if (!(initial_step_translation_m > 0.0) || !(initial_step_rotation_rad > 0.0))
-    return fail("initial steps must be > 0 (metres, radians)");
-  if (!pivot_source.allFinite()) return fail("pivot_source must be finite");
+    return Invalid(why, "initial steps must be > 0 (metres, radians)");
+  if (!pivot_source.allFinite()) return Invalid(why, "pivot_source must be finite");
   return true;
 }
 

@@ -21,6 +21,7 @@
 
 #include <Eigen/Geometry>
 
+#include "core/enum_names.hpp"
 #include "core/geometry.hpp"
 #include "core/nelder_mead.hpp"
 
@@ -32,6 +33,8 @@ class PairCost;
 // (Nelder-Mead, derivative free, any binning) or L-BFGS with analytic
 // gradients (B-spline binning only: hard-binned costs are piecewise constant).
 enum class LowerSolver { kSimplex, kLbfgs };
+inline constexpr auto kLowerSolverNames =
+    MakeEnumNames<LowerSolver>({{LowerSolver::kSimplex, "simplex"}, {LowerSolver::kLbfgs, "lbfgs"}});
 const char* LowerSolverName(LowerSolver solver);                        // "simplex", "lbfgs"
 bool ParseLowerSolver(const std::string& name, LowerSolver* solver);  // inverse; false if unknown
 

@@ -5,54 +5,28 @@
 #include <cstdint>
 #include <numeric>
 
+#include "core/validation.hpp"
+
 namespace scenecal {
 
-const char* BinningName(Binning binning) {
-  switch (binning) {
-    case Binning::kHard:
-      return "hard";
-    case Binning::kBSpline:
-      return "bspline";
-  }
-  return "unknown";
-}
+const char* BinningName(Binning binning) { return EnumName(kBinningNames, binning); }
 
-std::optional<Binning> ParseBinning(std::string_view name) {
-  if (name == "hard") return Binning::kHard;
-  if (name == "bspline") return Binning::kBSpline;
-  return std::nullopt;
-}
+std::optional<Binning> ParseBinning(std::string_view name) { return ParseEnumName(kBinningNames, name); }
 
-const char* MetricKindName(MetricKind kind) {
-  switch (kind) {
-    case MetricKind::kNid:
-      return "nid";
-    case MetricKind::kMi:
-      return "mi";
-  }
-  return "unknown";
-}
+const char* MetricKindName(MetricKind kind) { return EnumName(kMetricKindNames, kind); }
 
-std::optional<MetricKind> ParseMetricKind(std::string_view name) {
-  if (name == "nid") return MetricKind::kNid;
-  if (name == "mi") return MetricKind::kMi;
-  return std::nullopt;
-}
+std::optional<MetricKind> ParseMetricKind(std::string_view name) { return ParseEnumName(kMetricKindNames, name); }
 
 bool HistogramOptions::IsValid(std::string* why) const {
-  auto fail = [why](const std::string& message) {
-    if (why != nullptr) *why = message;
-    return false;
-  };
   if (reflectance_bins < 2 || reflectance_bins > kMaxBins) {
-    return fail("reflectance_bins must be in [2, " + std::to_string(kMaxBins) + "], got " +
-                std::to_string(reflectance_bins));
+    return Invalid(why, "reflectance_bins must be in [2, " + std::to_string(kMaxBins) + "], got " +
+                        std::to_string(reflectance_bins));
   }
   if (intensity_bins < 2 || intensity_bins > kMaxBins) {
-    return fail("intensity_bins must be in [2, " + std::to_string(kMaxBins) + "], got " +
-                std::to_string(intensity_bins));
+    return Invalid(why, "intensity_bins must be in [2, " + std::to_string(kMaxBins) + "], got " +
+                        std::to_string(intensity_bins));
   }
-  if (binning != Binning::kHard && binning != Binning::kBSpline) return fail("binning is not a known value");
+  if (binning != Binning::kHard && binning != Binning::kBSpline) return Invalid(why, "binning is not a known value");
   return true;
 }
 

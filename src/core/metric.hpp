@@ -20,6 +20,7 @@
 #include <string_view>
 #include <vector>
 
+#include "core/enum_names.hpp"
 #include "core/geometry.hpp"
 
 namespace scenecal {
@@ -33,9 +34,13 @@ namespace scenecal {
 //            C2 functions of y (and x). At the edges the bin indices are
 //            clamped into the table, so every sample contributes weight 1.
 enum class Binning { kHard, kBSpline };
+inline constexpr auto kBinningNames =
+    MakeEnumNames<Binning>({{Binning::kHard, "hard"}, {Binning::kBSpline, "bspline"}});
 
 // Which information measure the optimiser uses.
 enum class MetricKind { kNid, kMi };
+inline constexpr auto kMetricKindNames =
+    MakeEnumNames<MetricKind>({{MetricKind::kNid, "nid"}, {MetricKind::kMi, "mi"}});
 
 const char* BinningName(Binning binning);                    // "hard", "bspline"
 std::optional<Binning> ParseBinning(std::string_view name);  // inverse; nullopt if unknown

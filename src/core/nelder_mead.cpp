@@ -10,23 +10,20 @@
 
 #include "core/geometry.hpp"
 #include "core/interrupt.hpp"
+#include "core/validation.hpp"
 
 namespace scenecal {
 
 bool NelderMeadOptions::IsValid(std::string* why) const {
-  const auto fail = [why](const std::string& message) {
-    if (why != nullptr) *why = message;
-    return false;
-  };
   if (!(initial_step_translation_m > 0.0) || !std::isfinite(initial_step_translation_m))
-    return fail("initial_step_translation_m must be a positive number of metres");
+    return Invalid(why, "initial_step_translation_m must be a positive number of metres");
   if (!(initial_step_rotation_rad > 0.0) || !std::isfinite(initial_step_rotation_rad))
-    return fail("initial_step_rotation_rad must be a positive number of radians");
-  if (max_iterations < 1) return fail("max_iterations must be at least 1");
-  if (max_evaluations < 0) return fail("max_evaluations must be 0 (no cap) or positive");
-  if (!(function_tolerance >= 0.0)) return fail("function_tolerance must be >= 0");
+    return Invalid(why, "initial_step_rotation_rad must be a positive number of radians");
+  if (max_iterations < 1) return Invalid(why, "max_iterations must be at least 1");
+  if (max_evaluations < 0) return Invalid(why, "max_evaluations must be 0 (no cap) or positive");
+  if (!(function_tolerance >= 0.0)) return Invalid(why, "function_tolerance must be >= 0");
   if (!(simplex_tolerance_translation_m >= 0.0) || !(simplex_tolerance_rotation_rad >= 0.0))
-    return fail("simplex tolerances must be >= 0");
+    return Invalid(why, "simplex tolerances must be >= 0");
   return true;
 }
 

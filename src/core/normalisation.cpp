@@ -6,39 +6,24 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "core/validation.hpp"
+
 namespace scenecal {
 
-const char* NormalisationName(Normalisation normalisation) {
-  switch (normalisation) {
-    case Normalisation::kNone:
-      return "none";
-    case Normalisation::kMinMax:
-      return "minmax";
-    case Normalisation::kRank:
-      return "rank";
-  }
-  return "unknown";
-}
+const char* NormalisationName(Normalisation normalisation) { return EnumName(kNormalisationNames, normalisation); }
 
 std::optional<Normalisation> ParseNormalisation(std::string_view name) {
-  if (name == "none") return Normalisation::kNone;
-  if (name == "minmax") return Normalisation::kMinMax;
-  if (name == "rank" || name == "equalise" || name == "equalize") return Normalisation::kRank;
-  return std::nullopt;
+  return ParseEnumName(kNormalisationNames, name);
 }
 
 bool NormalisationOptions::IsValid(std::string* why) const {
-  auto fail = [why](const std::string& message) {
-    if (why != nullptr) *why = message;
-    return false;
-  };
   if (!(intensity_highpass_width_fraction >= 0.0 && intensity_highpass_width_fraction <= 0.5)) {
-    return fail("intensity high-pass sigma must be a fraction of the image width in [0, 0.5], got " +
-                std::to_string(intensity_highpass_width_fraction));
+    return Invalid(why, "intensity high-pass sigma must be a fraction of the image width in [0, 0.5], got " +
+                        std::to_string(intensity_highpass_width_fraction));
   }
   if (!(lower_percentile >= 0.0 && lower_percentile < upper_percentile && upper_percentile <= 100.0)) {
-    return fail("percentiles must satisfy 0 <= lower < upper <= 100, got lower " + std::to_string(lower_percentile) +
-                ", upper " + std::to_string(upper_percentile));
+    return Invalid(why, "percentiles must satisfy 0 <= lower < upper <= 100, got lower " +
+                            std::to_string(lower_percentile) + ", upper " + std::to_string(upper_percentile));
   }
   return true;
 }

@@ -12,6 +12,8 @@
 
 #include <opencv2/core/mat.hpp>
 
+#include "core/enum_names.hpp"
+
 namespace scenecal {
 
 // kNone:   values are taken as already in [0, 1] and only clamped.
@@ -23,6 +25,10 @@ namespace scenecal {
 //          fitted values become uniform on [0, 1]. Values not in the fitted
 //          set are interpolated linearly between neighbouring distinct values.
 enum class Normalisation { kNone, kMinMax, kRank };
+// "equalise" and "equalize" are accepted aliases of "rank".
+inline constexpr auto kNormalisationNames = MakeEnumNames<Normalisation>(
+    {{Normalisation::kNone, "none"}, {Normalisation::kMinMax, "minmax"}, {Normalisation::kRank, "rank"},
+     {Normalisation::kRank, "equalise"}, {Normalisation::kRank, "equalize"}});
 
 const char* NormalisationName(Normalisation normalisation);  // "none", "minmax", "rank"
 // Accepts "none", "minmax", "rank", and "equalise"/"equalize" for kRank.

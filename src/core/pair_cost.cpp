@@ -10,33 +10,27 @@
 #include <tbb/parallel_for.h>
 
 #include "core/interrupt.hpp"
+#include "core/validation.hpp"
 
 namespace scenecal {
 
 bool PairCostOptions::IsValid(std::string* why) const {
   if (!histogram.IsValid(why)) return false;
   if (!swathe.IsValid(why)) return false;
-  if (min_points_per_scene < 1) {
-    if (why != nullptr) *why = "min_points_per_scene must be at least 1";
-    return false;
-  }
+  if (min_points_per_scene < 1) return Invalid(why, "min_points_per_scene must be at least 1");
   return true;
 }
 
 bool MotionCorrectionOptions::IsValid(std::string* why) const {
-  const auto fail = [&](const char* message) {
-    if (why != nullptr) *why = message;
-    return false;
-  };
-  if (!(max_scale > 0.0 && max_scale < 0.5)) return fail("motion correction: max_scale must be in (0, 0.5)");
+  if (!(max_scale > 0.0 && max_scale < 0.5)) return Invalid(why, "motion correction: max_scale must be in (0, 0.5)");
   if (!(max_rate_rad_per_m > 0.0 && max_rate_rad_per_m < 0.1))
-    return fail("motion correction: max_rate_rad_per_m must be in (0, 0.1)");
+    return Invalid(why, "motion correction: max_rate_rad_per_m must be in (0, 0.1)");
   if (!(initial_step_scale > 0.0 && initial_step_scale <= max_scale))
-    return fail("motion correction: initial_step_scale must be in (0, max_scale]");
+    return Invalid(why, "motion correction: initial_step_scale must be in (0, max_scale]");
   if (!(initial_step_rate_rad_per_m > 0.0 && initial_step_rate_rad_per_m <= max_rate_rad_per_m))
-    return fail("motion correction: initial_step_rate_rad_per_m must be in (0, max_rate_rad_per_m]");
-  if (max_iterations < 1) return fail("motion correction: max_iterations must be at least 1");
-  if (!scale && !turn && !roll && !drive_scale) return fail("motion correction: no term to estimate");
+    return Invalid(why, "motion correction: initial_step_rate_rad_per_m must be in (0, max_rate_rad_per_m]");
+  if (max_iterations < 1) return Invalid(why, "motion correction: max_iterations must be at least 1");
+  if (!scale && !turn && !roll && !drive_scale) return Invalid(why, "motion correction: no term to estimate");
   return true;
 }
 

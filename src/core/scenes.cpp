@@ -5,37 +5,24 @@
 #include <optional>
 #include <sstream>
 
+#include "core/validation.hpp"
+
 namespace scenecal {
 
 bool ParseSwatheDirection(const std::string& name, SwatheDirection* direction) {
-  if (name == "forward") *direction = SwatheDirection::kForward;
-  else if (name == "backward") *direction = SwatheDirection::kBackward;
-  else if (name == "both") *direction = SwatheDirection::kBoth;
-  else return false;
-  return true;
+  return ParseEnumName(kSwatheDirectionNames, name, direction);
 }
 
-const char* SwatheDirectionName(SwatheDirection direction) {
-  switch (direction) {
-    case SwatheDirection::kForward: return "forward";
-    case SwatheDirection::kBackward: return "backward";
-    case SwatheDirection::kBoth: return "both";
-  }
-  return "unknown";
-}
+const char* SwatheDirectionName(SwatheDirection direction) { return EnumName(kSwatheDirectionNames, direction); }
 
 bool SceneOptions::IsValid(std::string* why) const {
-  const auto fail = [why](const std::string& message) {
-    if (why != nullptr) *why = message;
-    return false;
-  };
-  if (scenes_per_camera < 1) return fail("scenes_per_camera must be at least 1");
+  if (scenes_per_camera < 1) return Invalid(why, "scenes_per_camera must be at least 1");
   if (!(swathe_length_m > 0.0) || !std::isfinite(swathe_length_m))
-    return fail("swathe_length_m must be a positive number of metres");
-  if (!(min_speed_mps >= 0.0) || !std::isfinite(min_speed_mps)) return fail("min_speed_mps must be >= 0 (m/s)");
-  if (!(speed_window_s > 0.0) || !std::isfinite(speed_window_s)) return fail("speed_window_s must be > 0 (s)");
-  if (max_scans_per_scene < 0) return fail("max_scans_per_scene must be 0 (no cap) or positive");
-  if (!(std::abs(odometry_scale) < 0.2)) return fail("odometry_scale must be a fraction within (-0.2, 0.2)");
+    return Invalid(why, "swathe_length_m must be a positive number of metres");
+  if (!(min_speed_mps >= 0.0) || !std::isfinite(min_speed_mps)) return Invalid(why, "min_speed_mps must be >= 0 (m/s)");
+  if (!(speed_window_s > 0.0) || !std::isfinite(speed_window_s)) return Invalid(why, "speed_window_s must be > 0 (s)");
+  if (max_scans_per_scene < 0) return Invalid(why, "max_scans_per_scene must be 0 (no cap) or positive");
+  if (!(std::abs(odometry_scale) < 0.2)) return Invalid(why, "odometry_scale must be a fraction within (-0.2, 0.2)");
   return true;
 }
 

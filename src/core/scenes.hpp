@@ -15,12 +15,16 @@
 
 #include <Eigen/Geometry>
 
+#include "core/enum_names.hpp"
 #include "core/rig.hpp"
 #include "core/trajectory.hpp"
 
 namespace scenecal {
 
 enum class SwatheDirection { kForward, kBackward, kBoth };
+inline constexpr auto kSwatheDirectionNames = MakeEnumNames<SwatheDirection>(
+    {{SwatheDirection::kForward, "forward"}, {SwatheDirection::kBackward, "backward"},
+     {SwatheDirection::kBoth, "both"}});
 // "forward" | "backward" | "both"; false for anything else.
 bool ParseSwatheDirection(const std::string& name, SwatheDirection* direction);
 const char* SwatheDirectionName(SwatheDirection direction);

@@ -14,6 +14,10 @@
 // given estimate with a coarse z-buffer (a point farther than the nearest
 // point of its cell by a relative and an absolute margin is hidden). It is
 // refreshed between optimiser runs, never inside one, so the cost does not jump.
+//
+// swathe.cpp builds, thins and re-poses the swathe and refreshes visibility;
+// swathe_kernels.cpp holds the vectorised evaluation kernels, swathe_motion.cpp
+// the odometry drift correction.
 #pragma once
 
 #include <algorithm>
@@ -32,43 +36,10 @@
 #include "core/normalisation.hpp"
 #include "core/rig.hpp"
 #include "core/scenes.hpp"
+#include "core/swathe_kernels.hpp"
+#include "core/swathe_motion.hpp"
 
 namespace scenecal {
-
-// A correction of the odometry inside one swathe, for drift the trajectory
-// carries over the swathe's length (a nuisance estimated per camera frame,
-// see PairCost::EstimateMotionCorrections). Along the chain of scan poses,
-// from the image time outwards, every step of the trajectory is corrected:
-// its length scaled by (1 + scale), the base turned by rate * length about
-// the travel frame's axes, the step's direction by half that turn. The
-// travel frame (in base k; the base's own axes may point anywhere, e.g. a
-// camera's) has `forward` along the swathe's mean direction of travel and two
-// axes across it: MotionAxes. A constant scale error and constant turn rates
-// over the swathe (how visual odometry or an INS drifts: heading and pitch
-// rates) are undone exactly to first order. Zero = the trajectory as given.
-struct SwatheMotionCorrection {
-  double scale = 0.0;                  // fraction of each step's length (e.g. 0.005 = 0.5 %)
-  double turn_a_rad_per_m = 0.0;       // about the first axis across the travel, per metre travelled
-  double turn_b_rad_per_m = 0.0;       // about the second axis across the travel
-  double roll_rad_per_m = 0.0;         // about the direction of travel
-
-  bool IsZero() const {
-    return scale == 0.0 && turn_a_rad_per_m == 0.0 && turn_b_rad_per_m == 0.0 && roll_rad_per_m == 0.0;
-  }
-};
-
-// The travel frame of a swathe (columns: across a, across b, forward; base k
-// axes): forward along the chord from the first scan's position to the
-// last's (time order); across a is the base axis most nearly perpendicular to
-// it, made perpendicular; across b = forward x across a. Identity when the
-// swathe does not move (a static scene).
-Eigen::Matrix3d MotionAxes(const std::vector<Eigen::Isometry3d>& T_basek_basej);
-
-// The poses T_basek_basej (base at scan time j -> base at image time k, scans
-// in time order, image at time image_t_us) after `correction` (see above).
-std::vector<Eigen::Isometry3d> CorrectSwatheMotion(const std::vector<TimeUs>& scan_t_us,
-                                                   const std::vector<Eigen::Isometry3d>& T_basek_basej,
-                                                   TimeUs image_t_us, const SwatheMotionCorrection& correction);
 
 // The images a swathe scores, prepared once per camera frame and shared (not
 // copied: swathes only read them) by the swathes built from that frame (range
@@ -288,71 +259,6 @@ class SceneSwathe {
   SwatheMotionCorrection motion_correction_;
 };
 
-namespace swathe_detail {
-
-// Points are projected in blocks: a branch-free pass the compiler vectorises
-// (transform, projection, bounds; the same float arithmetic as ProjectFast, so
-// the same pixels), then a pass over the accepted points only that calls the
-// visitor, prefetching the image rows of a point a few places ahead (the
-// bilinear gathers, not the arithmetic, bound the cost kernel).
-constexpr int kBlock = 256;
-constexpr int kPrefetchDistance = 16;
-
-template <CameraModelKind kKind>
-inline void ProjectBlock(const ProjectionParams& params, const Eigen::Matrix<float, 3, 4>& m,
-                         const float* __restrict x, const float* __restrict y, const float* __restrict z,
-                         int count, float* __restrict u_out, float* __restrict v_out, float* __restrict depth_out,
-                         std::int32_t* __restrict accepted) {
-  const float m00 = m(0, 0), m01 = m(0, 1), m02 = m(0, 2), m03 = m(0, 3);
-  const float m10 = m(1, 0), m11 = m(1, 1), m12 = m(1, 2), m13 = m(1, 3);
-  const float m20 = m(2, 0), m21 = m(2, 1), m22 = m(2, 2), m23 = m(2, 3);
-  const float fx = params.fx, fy = params.fy, cx = params.cx, cy = params.cy;
-  const float u_min = params.u_min, u_max = params.u_max, v_min = params.v_min, v_max = params.v_max;
-  const float min_depth = params.min_depth, limit = params.monotonic_limit_squared;
-  const float k0 = params.k[0], k1 = params.k[1], k2 = params.k[2], k3 = params.k[3], k4 = params.k[4];
-  for (int k = 0; k < count; ++k) {
-    const float px = m00 * x[k] + m01 * y[k] + m02 * z[k] + m03;
-    const float py = m10 * x[k] + m11 * y[k] + m12 * z[k] + m13;
-    const float pz = m20 * x[k] + m21 * y[k] + m22 * z[k] + m23;
-    // No guard on the division: points with pz <= min_depth (inf/NaN pixels) are rejected below.
-    const float inverse_z = 1.0f / pz;
-    float xn = px * inverse_z;
-    float yn = py * inverse_z;
-    bool in_range = true;
-    if constexpr (kKind == CameraModelKind::kRadTan) {
-      const float r2 = xn * xn + yn * yn;
-      in_range = r2 < limit;
-      // camera_detail::DistortRadTan, written out so the loop stays branch-free.
-      const float radial = 1.0f + r2 * (k0 + r2 * (k1 + r2 * k4));
-      const float xy2 = 2.0f * xn * yn;
-      const float xd = xn * radial + k2 * xy2 + k3 * (r2 + 2.0f * xn * xn);
-      const float yd = yn * radial + k2 * (r2 + 2.0f * yn * yn) + k3 * xy2;
-      xn = xd;
-      yn = yd;
-    }
-    const float u = fx * xn + cx;
-    const float v = fy * yn + cy;
-    u_out[k] = u;
-    v_out[k] = v;
-    depth_out[k] = pz;
-    // Non-short-circuit & keeps the loop free of branches (vectorisable).
-    // (The visibility mask, bytes, is applied in a separate loop: mixing it in here would
-    // make the vectoriser process 16 or 32 points per iteration and spill registers.)
-    accepted[k] = (pz > min_depth) & in_range & (u >= u_min) & (u < u_max) & (v >= v_min) & (v < v_max);
-  }
-}
-
-// ProjectBlock for the camera model of params (the equidistant model, with an
-// atan per point, goes through the scalar ProjectFast). Compiled twice and
-// chosen at run time: for AVX2 (8 floats per instruction) and for baseline
-// x86-64 (SSE2). Without FMA in either, the two give bit-identical results.
-void ProjectAnyBlock(const ProjectionParams& params, const Eigen::Matrix<float, 3, 4>& m, const float* __restrict x,
-                     const float* __restrict y, const float* __restrict z, const std::uint8_t* __restrict visible,
-                     int count, float* __restrict u_out, float* __restrict v_out, float* __restrict depth_out,
-                     std::int32_t* __restrict accepted);
-
-}  // namespace swathe_detail
-
 template <typename BlockVisitor>
 void SceneSwathe::ForEachProjectedBlock(const Eigen::Isometry3d& T_camera_lidar, bool visible_only,
                                         BlockVisitor&& visit) const {
@@ -403,8 +309,8 @@ void SceneSwathe::ForEachProjected(const Eigen::Isometry3d& T_camera_lidar, bool
                               __builtin_prefetch(row + stride);
                             }
                             const int k = index[a];
-                            visit(begin + static_cast<std::size_t>(k), reflectance01[begin + static_cast<std::size_t>(k)],
-                                  u[k], v[k], depth[k]);
+                            visit(begin + static_cast<std::size_t>(k),
+                                  reflectance01[begin + static_cast<std::size_t>(k)], u[k], v[k], depth[k]);
                           }
                         });
 }

@@ -4,6 +4,7 @@
 #include <string>
 
 #include "core/geometry.hpp"
+#include "core/validation.hpp"
 #include "odometry/lidar_odometry.hpp"
 
 // What the odometry's users need without loading Open3D: its options' check
@@ -11,20 +12,16 @@
 namespace scenecal::odometry {
 
 bool LidarOdometryOptions::IsValid(std::string* why) const {
-  const auto fail = [why](const char* message) {
-    if (why != nullptr) *why = message;
-    return false;
-  };
-  if (!(voxel_m > 0.0) || !std::isfinite(voxel_m)) return fail("voxel_m must be a positive number of metres");
+  if (!(voxel_m > 0.0) || !std::isfinite(voxel_m)) return Invalid(why, "voxel_m must be a positive number of metres");
   if (!(min_range_m >= 0.0) || !(max_range_m > min_range_m) || !std::isfinite(max_range_m))
-    return fail("the range band must satisfy 0 <= min_range_m < max_range_m");
+    return Invalid(why, "the range band must satisfy 0 <= min_range_m < max_range_m");
   if (!(max_correspondence_m > 0.0) || !std::isfinite(max_correspondence_m))
-    return fail("max_correspondence_m must be positive");
-  if (max_iterations < 1) return fail("max_iterations must be at least 1");
-  if (map_keyframes < 1) return fail("map_keyframes must be at least 1");
+    return Invalid(why, "max_correspondence_m must be positive");
+  if (max_iterations < 1) return Invalid(why, "max_iterations must be at least 1");
+  if (map_keyframes < 1) return Invalid(why, "map_keyframes must be at least 1");
   if (!(keyframe_distance_m > 0.0) || !(keyframe_rotation_deg > 0.0))
-    return fail("keyframe_distance_m and keyframe_rotation_deg must be positive");
-  if (!(min_fitness >= 0.0 && min_fitness <= 1.0)) return fail("min_fitness must lie in [0, 1]");
+    return Invalid(why, "keyframe_distance_m and keyframe_rotation_deg must be positive");
+  if (!(min_fitness >= 0.0 && min_fitness <= 1.0)) return Invalid(why, "min_fitness must lie in [0, 1]");
   return true;
 }
 

@@ -6,20 +6,17 @@
 
 #include "core/interrupt.hpp"
 #include "core/upper_level.hpp"
+#include "core/validation.hpp"
 
 namespace scenecal::report {
 
 bool CostSliceOptions::IsValid(std::string* why) const {
-  const auto fail = [why](const char* message) {
-    if (why) *why = message;
-    return false;
-  };
   if (!(half_range_translation_m > 0) || !std::isfinite(half_range_translation_m))
-    return fail("half_range_translation_m must be positive and finite");
+    return Invalid(why, "half_range_translation_m must be positive and finite");
   if (!(half_range_rotation_rad > 0) || !std::isfinite(half_range_rotation_rad))
-    return fail("half_range_rotation_rad must be positive and finite");
-  if (samples < 3) return fail("samples must be at least 3");
-  if (max_alternations < 1) return fail("max_alternations must be at least 1");
+    return Invalid(why, "half_range_rotation_rad must be positive and finite");
+  if (samples < 3) return Invalid(why, "samples must be at least 3");
+  if (max_alternations < 1) return Invalid(why, "max_alternations must be at least 1");
   return true;
 }
 

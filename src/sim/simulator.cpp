@@ -14,6 +14,7 @@
 
 #include "core/geometry.hpp"
 #include "core/interrupt.hpp"
+#include "core/validation.hpp"
 #include "io/dataset.hpp"
 #include "io/error.hpp"
 #include "io/temporary_paths.hpp"
@@ -22,58 +23,47 @@
 namespace scenecal::sim {
 namespace fs = std::filesystem;
 
-bool ParsePreset(const std::string& name, Preset* preset) {
-  if (name == "robotcar") *preset = Preset::kRobotCar;
-  else if (name == "trinocular") *preset = Preset::kTrinocular;
-  else if (name == "spin3d") *preset = Preset::kSpin3d;
-  else return false;
-  return true;
-}
+bool ParsePreset(const std::string& name, Preset* preset) { return ParseEnumName(kPresetNames, name, preset); }
 
-const char* PresetName(Preset preset) {
-  switch (preset) {
-    case Preset::kRobotCar: return "robotcar";
-    case Preset::kTrinocular: return "trinocular";
-    case Preset::kSpin3d: return "spin3d";
-  }
-  return "unknown";
-}
+const char* PresetName(Preset preset) { return EnumName(kPresetNames, preset); }
 
 bool SimulationOptions::IsValid(std::string* why) const {
-  const auto fail = [&](const std::string& message) {
-    if (why) *why = message;
-    return false;
-  };
   const auto finite = [](double x) { return std::isfinite(x); };
   if (duration_s == 0.0 && !(finite(distance_m) && distance_m >= 5.0 && distance_m <= 20000.0))
-    return fail(fmt::format("distance must be in [5, 20000] m, got {}", distance_m));
+    return Invalid(why, fmt::format("distance must be in [5, 20000] m, got {}", distance_m));
   if (!(finite(duration_s) && duration_s >= 0.0 && duration_s <= 3600.0))
-    return fail(fmt::format("duration must be in [0, 3600] s (0: drive by distance), got {}", duration_s));
-  if (duration_s > 0.0 && duration_s < 1.0) return fail(fmt::format("duration must be at least 1 s, got {}", duration_s));
+    return Invalid(why, fmt::format("duration must be in [0, 3600] s (0: drive by distance), got {}", duration_s));
+  if (duration_s > 0.0 && duration_s < 1.0)
+    return Invalid(why, fmt::format("duration must be at least 1 s, got {}", duration_s));
   if (!(finite(speed_mps) && speed_mps >= 0.5 && speed_mps <= 30.0))
-    return fail(fmt::format("speed must be in [0.5, 30] m/s, got {}", speed_mps));
+    return Invalid(why, fmt::format("speed must be in [0.5, 30] m/s, got {}", speed_mps));
   if (!(finite(image_rate_hz) && image_rate_hz > 0.0 && image_rate_hz <= 30.0))
-    return fail(fmt::format("image rate must be in (0, 30] Hz, got {}", image_rate_hz));
+    return Invalid(why, fmt::format("image rate must be in (0, 30] Hz, got {}", image_rate_hz));
   if (image_width < 16 || image_width > 8192 || image_height < 16 || image_height > 8192)
-    return fail(fmt::format("image size must be within 16..8192 pixels, got {}x{}", image_width, image_height));
+    return Invalid(why, fmt::format("image size must be within 16..8192 pixels, got {}x{}", image_width, image_height));
   if (!(finite(perturb_translation_m) && perturb_translation_m >= 0.0 && perturb_translation_m <= 10.0))
-    return fail(fmt::format("perturb-translation must be in [0, 10] m, got {}", perturb_translation_m));
+    return Invalid(why, fmt::format("perturb-translation must be in [0, 10] m, got {}", perturb_translation_m));
   if (!(finite(perturb_rotation_deg) && perturb_rotation_deg >= 0.0 && perturb_rotation_deg < 180.0))
-    return fail(fmt::format("perturb-rotation must be in [0, 180) deg, got {}", perturb_rotation_deg));
-  if (!(finite(camera_perturb_translation_m) && camera_perturb_translation_m >= 0.0 && camera_perturb_translation_m <= 1.0))
-    return fail(fmt::format("camera-perturb-translation must be in [0, 1] m, got {}", camera_perturb_translation_m));
-  if (!(finite(camera_perturb_rotation_deg) && camera_perturb_rotation_deg >= 0.0 && camera_perturb_rotation_deg < 90.0))
-    return fail(fmt::format("camera-perturb-rotation must be in [0, 90) deg, got {}", camera_perturb_rotation_deg));
+    return Invalid(why, fmt::format("perturb-rotation must be in [0, 180) deg, got {}", perturb_rotation_deg));
+  if (!(finite(camera_perturb_translation_m) && camera_perturb_translation_m >= 0.0 &&
+        camera_perturb_translation_m <= 1.0))
+    return Invalid(why,
+                   fmt::format("camera-perturb-translation must be in [0, 1] m, got {}", camera_perturb_translation_m));
+  if (!(finite(camera_perturb_rotation_deg) && camera_perturb_rotation_deg >= 0.0 &&
+        camera_perturb_rotation_deg < 90.0))
+    return Invalid(why,
+                   fmt::format("camera-perturb-rotation must be in [0, 90) deg, got {}", camera_perturb_rotation_deg));
   if (!(finite(odometry_noise) && odometry_noise >= 0.0 && odometry_noise <= 100.0))
-    return fail(fmt::format("odometry-noise must be in [0, 100], got {}", odometry_noise));
+    return Invalid(why, fmt::format("odometry-noise must be in [0, 100], got {}", odometry_noise));
   if (!(finite(lidar_2d_rate_hz) && lidar_2d_rate_hz > 0.0 && lidar_2d_rate_hz <= 200.0))
-    return fail(fmt::format("2D lidar rate must be in (0, 200] Hz, got {}", lidar_2d_rate_hz));
+    return Invalid(why, fmt::format("2D lidar rate must be in (0, 200] Hz, got {}", lidar_2d_rate_hz));
   if (!(finite(lidar_3d_rate_hz) && lidar_3d_rate_hz > 0.0 && lidar_3d_rate_hz <= 50.0))
-    return fail(fmt::format("3D lidar rate must be in (0, 50] Hz, got {}", lidar_3d_rate_hz));
+    return Invalid(why, fmt::format("3D lidar rate must be in (0, 50] Hz, got {}", lidar_3d_rate_hz));
   if (!(finite(spin_azimuth_step_deg) && spin_azimuth_step_deg >= 0.05 && spin_azimuth_step_deg <= 5.0))
-    return fail(fmt::format("spinning lidar azimuth step must be in [0.05, 5] deg, got {}", spin_azimuth_step_deg));
+    return Invalid(why,
+                   fmt::format("spinning lidar azimuth step must be in [0.05, 5] deg, got {}", spin_azimuth_step_deg));
   if (!(finite(trajectory_rate_hz) && trajectory_rate_hz >= 10.0 && trajectory_rate_hz <= 1000.0))
-    return fail(fmt::format("trajectory rate must be in [10, 1000] Hz, got {}", trajectory_rate_hz));
+    return Invalid(why, fmt::format("trajectory rate must be in [10, 1000] Hz, got {}", trajectory_rate_hz));
   return true;
 }
 

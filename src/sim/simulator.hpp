@@ -15,6 +15,7 @@
 
 #include <Eigen/Geometry>
 
+#include "core/enum_names.hpp"
 #include "core/rig.hpp"
 #include "core/trajectory.hpp"
 #include "sim/motion.hpp"
@@ -28,6 +29,8 @@ enum class Preset {
   kTrinocular,  // three cameras 0.12 m apart, rear and front push-broom lidars
   kSpin3d,      // stereo pair, 32-beam spinning lidar on the roof
 };
+inline constexpr auto kPresetNames = MakeEnumNames<Preset>(
+    {{Preset::kRobotCar, "robotcar"}, {Preset::kTrinocular, "trinocular"}, {Preset::kSpin3d, "spin3d"}});
 bool ParsePreset(const std::string& name, Preset* preset);  // "robotcar" | "trinocular" | "spin3d"
 const char* PresetName(Preset preset);
 
