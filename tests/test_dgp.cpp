@@ -272,6 +272,11 @@ TEST(Npy, LayoutsAndTypes) {
   EXPECT_EQ(big.cols, 1u);
   EXPECT_EQ(big.values, (std::vector<double>{-7, 300, 2}));
   EXPECT_EQ(io::ParseNpy(Npy("|u1", false, "(0, 4)", ""), "empty").rows, 0u);
+  // A huge dimension beside a zero one holds no element (fuzzing found it looping over the rows).
+  const io::NpyArray tall_empty = io::ParseNpy(Npy("<f4", true, "(747771587, 0)", ""), "tall");
+  EXPECT_EQ(tall_empty.rows, 747771587u);
+  EXPECT_EQ(tall_empty.cols, 0u);
+  EXPECT_TRUE(tall_empty.values.empty());
 }
 
 TEST(Npy, MalformedArraysAreRefusedBeforeAllocating) {

@@ -173,6 +173,8 @@ NpyArray ParseNpy(const std::string& bytes, const std::string& name) {
          "exactly rows x columns x element size bytes after the header");
   }
   array.values.resize(array.rows * array.cols);
+  // An empty array ends here: a shape such as (10^9, 0) would otherwise loop 10^9 times over no element.
+  if (array.values.empty()) return array;
   const unsigned char* elements = data + data_start;
   for (std::size_t r = 0; r < array.rows; ++r) {
     for (std::size_t c = 0; c < array.cols; ++c) {
