@@ -23,6 +23,7 @@
 #include "core/basin_check.hpp"
 #include "core/calibrate.hpp"
 #include "core/calibrate_alternating.hpp"
+#include "core/calibrator.hpp"
 #include "core/geometry.hpp"
 #include "io/dataset.hpp"
 #include "sim/simulator.hpp"
@@ -30,6 +31,10 @@
 
 namespace scenecal {
 namespace {
+
+// The first stage's rotation step (rad) some assertions below were measured
+// with; the calibration's default is 1 deg (0.01745 rad).
+constexpr double kMeasuredStepRotationRad = 0.02;
 
 namespace fs = std::filesystem;
 
@@ -138,6 +143,7 @@ TEST_F(CalibrateOnSimulation, OnceSchemeCalibratesEachPairAndReportsAgreement) {
   options.scheme = CalibrationScheme::kOnce;
   options.scenes.scenes_per_camera = 8;
   options.stages = {{1.0, 0.004, 0}, {0.3, 0.0, 0}};
+  options.nelder_mead.initial_step_rotation_rad = kMeasuredStepRotationRad;
   const CalibrationInput input = Load(dataset, options.scenes);
   const CalibrationOutcome outcome = Calibrate(input, options);
   ASSERT_EQ(outcome.status, CalibrationStatus::kSuccess) << outcome.why;
@@ -158,6 +164,7 @@ TEST_F(CalibrateOnSimulation, OnceSchemeCalibratesEachPairAndReportsAgreement) {
 TEST_F(CalibrateOnSimulation, ConstantImagesCannotBeCalibrated) {
   const io::Dataset dataset = io::OpenDataset(DatasetPath());
   CalibrationOptions options;
+  options.scheme = CalibrationScheme::kJoint;
   options.scenes.scenes_per_camera = 5;
   CalibrationInput input = Load(dataset, options.scenes);
   for (auto& [camera, images] : input.images) {
@@ -172,6 +179,7 @@ TEST_F(CalibrateOnSimulation, ConstantImagesCannotBeCalibrated) {
 TEST_F(CalibrateOnSimulation, NoOverlapInTimeCannotBeCalibrated) {
   const io::Dataset dataset = io::OpenDataset(DatasetPath());
   CalibrationOptions options;
+  options.scheme = CalibrationScheme::kJoint;
   // Scans an hour after the drive: no frame has scans in its window.
   std::map<std::string, std::vector<TimeUs>> image_times, scan_times;
   for (const auto& f : dataset.images.at("left")) image_times["left"].push_back(f.t_us);
@@ -188,6 +196,7 @@ TEST_F(CalibrateOnSimulation, NoOverlapInTimeCannotBeCalibrated) {
 TEST_F(CalibrateOnSimulation, TimeBudgetStopsTheSearch) {
   const io::Dataset dataset = io::OpenDataset(DatasetPath());
   CalibrationOptions options;
+  options.scheme = CalibrationScheme::kJoint;
   options.scenes.scenes_per_camera = 5;
   options.time_budget_s = 0.3;
   const CalibrationInput input = Load(dataset, options.scenes);
@@ -839,6 +848,7 @@ TEST_F(CalibrateOnSimulation, CostMachineryIsUnbiasedWhenReflectanceFollowsTheIm
   options.lower_solver = LowerSolver::kLbfgs;
   options.cost.histogram.binning = Binning::kBSpline;
   options.cost.swathe.refresh_border_px = 18.0;  // the fixed point set L-BFGS needs (3.75 % of the width)
+  options.gradient.initial_step_rotation_rad = kMeasuredStepRotationRad;
   // Few scenes, far apart: each scan lies in one left-camera swathe only, so
   // it can be given the intensity of that one image.
   options.scenes.scenes_per_camera = 5;
@@ -937,8 +947,9 @@ TEST_F(CalibrateOnSimulation, BasinCheckRestartsAboutEachAxisAndComparesTheEnds)
   std::string why;
   ASSERT_TRUE(check_options.IsValid(&why)) << why;
   std::vector<std::string> messages;
-  const std::vector<LidarBasinCheck> checks =
-      CheckBasins(input, options, result, check_options, [&](const std::string& m) { messages.push_back(m); });
+  Calibrator calibrator(input, options, [&](const std::string& m) { messages.push_back(m); });
+  ASSERT_EQ(calibrator.Status(), CalibrationStatus::kSuccess) << calibrator.Why();
+  const std::vector<LidarBasinCheck> checks = calibrator.CheckBasins(result, check_options);
   ASSERT_EQ(checks.size(), 1u);
   const LidarBasinCheck& check = checks[0];
   ASSERT_TRUE(check.checked) << check.why;
@@ -990,7 +1001,7 @@ TEST_F(CalibrateOnSimulation, BasinCheckRestartsAboutEachAxisAndComparesTheEnds)
   // Starts 10 deg away are far outside any basin of a push-broom swathe: the runs cannot all come back.
   BasinCheckOptions far = check_options;
   far.offset_rad = RadiansFromDegrees(10.0);
-  const std::vector<LidarBasinCheck> far_checks = CheckBasins(input, options, result, far);
+  const std::vector<LidarBasinCheck> far_checks = calibrator.CheckBasins(result, far);
   ASSERT_EQ(far_checks.size(), 1u);
   EXPECT_FALSE(far_checks[0].agree);
   EXPECT_GT(DegreesFromRadians(far_checks[0].max_rotation_apart_rad), 1.0);
@@ -1007,14 +1018,15 @@ TEST_F(CalibrateOnSimulation, AlternatingNidRecoversTheTruthAndItsLevelsAgree) {
   options.scheme = CalibrationScheme::kAlt;
   options.scenes.scenes_per_camera = 10;
   const CalibrationInput input = Load(dataset, options.scenes);
-  AlternatingOptions alternating = DefaultAlternatingOptions(options);
+  const AlternatingOptions alternating = AlternatingOptionsFor(options);
   // The paper's schedule: 20 alternations, w = 0.5 (penalty sigma 5 m -> ~7 mm).
   ASSERT_EQ(alternating.max_alternations, 20);
   ASSERT_EQ(alternating.covariance_shrink, 0.5);
-  AlternatingResult details;
-  AlternatingProblem problem;
-  const CalibrationOutcome outcome = CalibrateAlternating(input, options, alternating, {}, &details, &problem);
+  const CalibrationOutcome outcome = Calibrate(input, options);
   ASSERT_EQ(outcome.status, CalibrationStatus::kSuccess) << outcome.why;
+  ASSERT_TRUE(outcome.alternating.has_value());
+  const AlternatingResult& details = outcome.alternating->solved;
+  const AlternatingProblem& problem = outcome.alternating->problem;
   ASSERT_EQ(problem.pairs.size(), 2u);
   ASSERT_FALSE(details.history.empty());
   EXPECT_EQ(static_cast<int>(details.history.size()), details.alternations);

@@ -25,6 +25,7 @@
 #include "core/alternating.hpp"
 #include "core/calibrate.hpp"
 #include "core/calibrate_alternating.hpp"
+#include "core/calibrator.hpp"
 #include "core/geometry.hpp"
 #include "core/gradient_solver.hpp"
 #include "core/pair_cost.hpp"
@@ -359,14 +360,16 @@ TEST_F(LowerSolverOnSimulation, LbfgsLowerLevelRecoversAPerturbedTransform) {
   options.lower_solver = LowerSolver::kLbfgs;
   options.cost.histogram.binning = Binning::kBSpline;
   options.scenes.scenes_per_camera = 6;
+  // The first stage's steps these assertions were measured with (the default turns 1 deg).
+  options.nelder_mead.initial_step_rotation_rad = 0.02;
+  options.gradient.initial_step_rotation_rad = 0.02;
   const CalibrationInput input = Load(dataset, options.scenes);
-  AlternatingSetup setup;
-  std::string why;
-  ASSERT_EQ(BuildAlternatingSetup(input, options, &setup, &why), CalibrationStatus::kSuccess) << why;
-  const AlternatingOptions alternating = DefaultAlternatingOptions(options);
-  std::vector<PairObjective> objectives = setup.Objectives(options, alternating);
+  Calibrator calibrator(input, options);
+  ASSERT_EQ(calibrator.Status(), CalibrationStatus::kSuccess) << calibrator.Why();
+  const AlternatingOptions alternating = AlternatingOptionsFor(options);
+  std::vector<PairObjective> objectives = calibrator.AlternatingObjectives();
   ASSERT_FALSE(objectives.empty());
-  const AlternatingPair& pair = setup.problem.pairs[0];
+  const AlternatingPair& pair = calibrator.AlternatingPairs().pairs[0];
   const Eigen::Isometry3d truth = dataset.rig.cameras[static_cast<std::size_t>(pair.camera)].T_base_camera.inverse() *
                                   dataset.ground_truth->T_base_lidar.at("lms_rear");
   const Eigen::Isometry3d start =
@@ -423,10 +426,11 @@ TEST_F(LowerSolverOnSimulation, AlternatingWithLbfgsRecordsItsSolver) {
   options.scenes.scenes_per_camera = 4;
   options.stages = {{1.0, 0.0, 0}};
   const CalibrationInput input = Load(dataset, options.scenes);
-  AlternatingOptions alternating = DefaultAlternatingOptions(options, 3);
-  AlternatingResult details;
-  const CalibrationOutcome outcome = CalibrateAlternating(input, options, alternating, {}, &details);
+  options.alternating.max_alternations = 3;
+  const CalibrationOutcome outcome = Calibrate(input, options);
   ASSERT_EQ(outcome.status, CalibrationStatus::kSuccess) << outcome.why;
+  ASSERT_TRUE(outcome.alternating.has_value());
+  const AlternatingResult& details = outcome.alternating->solved;
   EXPECT_GT(details.total_gradient_evaluations, 0);
   EXPECT_LE(details.total_gradient_evaluations, details.total_evaluations);
   for (const PairReport& pair : outcome.pairs) EXPECT_LT(pair.final_cost, pair.initial_cost) << pair.camera;
@@ -442,22 +446,25 @@ TEST_F(LowerSolverOnSimulation, AlternatingWithLbfgsRecordsItsSolver) {
   }
   CalibrationOptions staged = options;
   staged.stages = three;
-  const AlternatingOptions spread = DefaultAlternatingOptions(staged, 26, 20);
+  staged.alternating.max_alternations = 26;
+  staged.alternating.stage_alternations = 20;
+  const AlternatingOptions spread = AlternatingOptionsFor(staged);
   EXPECT_EQ(StageSpan(spread), 20);
   EXPECT_EQ(spread.min_alternations, FirstAlternationOfLastStage(three, 20) + 1);
   ASSERT_EQ(spread.lower_step_scale.size(), 26u);
   for (int i = 0; i < 26; ++i) {
     EXPECT_EQ(spread.lower_step_scale[static_cast<std::size_t>(i)], i < 20 ? three[i * 3 / 20].step_scale : 0.1) << i;
   }
-  EXPECT_EQ(StageSpan(DefaultAlternatingOptions(staged, 26)), 26);
+  staged.alternating.stage_alternations = 0;
+  EXPECT_EQ(StageSpan(AlternatingOptionsFor(staged)), 26);
   AlternatingOptions too_many = spread;
   too_many.stage_alternations = 27;
   std::string stage_why;
   EXPECT_FALSE(too_many.IsValid(&stage_why));
   CalibrationOptions simplex = options;
   simplex.lower_solver = LowerSolver::kSimplex;
-  EXPECT_EQ(DefaultAlternatingOptions(simplex).initial_sigma_translation_m, 5.0);
-  EXPECT_EQ(DefaultAlternatingOptions(simplex).initial_sigma_rotation_rad, 5.0);
+  EXPECT_EQ(AlternatingOptionsFor(simplex).initial_sigma_translation_m, 5.0);
+  EXPECT_EQ(AlternatingOptionsFor(simplex).initial_sigma_rotation_rad, 5.0);
   EXPECT_NE(outcome.result.termination.find("with gradient"), std::string::npos) << outcome.result.termination;
   // Levels further apart at the end than the agreement thresholds: the result says so (the run
   // is deterministic, so thresholds at half and twice the gap found bracket it).
@@ -465,10 +472,10 @@ TEST_F(LowerSolverOnSimulation, AlternatingWithLbfgsRecordsItsSolver) {
   ASSERT_GT(last.max_disagreement_translation_m, 0.0);
   ASSERT_GT(last.max_disagreement_rotation_rad, 0.0);
   const auto levels_warnings = [&](double factor) {
-    AlternatingOptions thresholds = alternating;
-    thresholds.agreement_translation_m = factor * last.max_disagreement_translation_m;
-    thresholds.agreement_rotation_rad = factor * last.max_disagreement_rotation_rad;
-    const CalibrationOutcome rerun = CalibrateAlternating(input, options, thresholds, {});
+    CalibrationOptions thresholds = options;
+    thresholds.alternating.agreement_translation_m = factor * last.max_disagreement_translation_m;
+    thresholds.alternating.agreement_rotation_rad = factor * last.max_disagreement_rotation_rad;
+    const CalibrationOutcome rerun = Calibrate(input, thresholds);
     return std::count_if(rerun.result.warnings.begin(), rerun.result.warnings.end(), [](const std::string& w) {
       return w.find("lower and upper levels ended") != std::string::npos;
     });

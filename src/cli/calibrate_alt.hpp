@@ -1,30 +1,15 @@
-// The `alt` scheme in the calibrate command: threads or MPI ranks.
+// The process group of `calibrate` (one process, or the ranks of mpirun for
+// --backend mpi) and the solve on it: the alt scheme's lower levels on the
+// ranks, through the Calibrator's backend (core/calibrator.hpp).
 #pragma once
 
 #include <memory>
 #include <optional>
 #include <string>
 
-#include <yaml-cpp/yaml.h>
-
-#include "core/calibrate_alternating.hpp"
+#include "core/calibrator.hpp"
 
 namespace scenecal::cli {
-
-struct AlternatingArguments {
-  std::string backend = "threads";  // threads | mpi
-  int alternations = 20;
-  int stage_alternations = 0;  // 0: the stages spread over all alternations
-  double shrink = 0.5;
-  std::string penalty_frame = "lidar";  // PenaltyFrameName
-  // Not given: DefaultAlternatingOptions' (the paper's 5 m / 5 rad with the simplex, looser with lbfgs).
-  std::optional<double> sigma0_translation_m;
-  std::optional<double> sigma0_rotation_rad;
-  double stop_translation_m = 2e-4;
-  double stop_rotation_deg = 1e-3;
-  double camera_sigma_translation_m = 0.0005;
-  double camera_sigma_rotation_deg = 0.0115;
-};
 
 // MPI state of this process (rank 0 of 1 without MPI).
 class ProcessGroup {
@@ -45,21 +30,9 @@ class ProcessGroup {
   int size_ = 1;
 };
 
-struct AlternatingRun {
-  CalibrationOutcome outcome;
-  AlternatingResult details;
-  AlternatingProblem problem;  // names of the cameras, lidars and pairs of details
-  bool wrote_nothing = false;  // a serving MPI rank: it has no result to write
-};
-
-// Runs the alternating scheme. On MPI, every rank calls this with the same
-// input; rank 0 returns the outcome, the others return wrote_nothing = true.
-AlternatingRun RunAlternating(const CalibrationInput& input, const CalibrationOptions& options,
-                              const AlternatingArguments& arguments, ProcessGroup& group);
-
-AlternatingOptions MakeAlternatingOptions(const CalibrationOptions& options, const AlternatingArguments& arguments);
-
-// The per-alternation history (the paper's Fig. 4) as YAML for the result file.
-YAML::Node HistoryYaml(const AlternatingResult& details, const AlternatingProblem& problem);
+// Solves on the group: on this process, or with MPI (every rank built the same
+// calibrator) rank 0 solves with the lower levels spread over the ranks while
+// the others serve their pairs and return nothing.
+std::optional<CalibrationOutcome> SolveOnGroup(Calibrator& calibrator, ProcessGroup& group);
 
 }  // namespace scenecal::cli

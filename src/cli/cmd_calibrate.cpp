@@ -27,31 +27,62 @@
 #include "cli/setting.hpp"
 #include "cli/uncertainty_report.hpp"
 #include "cli/validators.hpp"
-#include "core/calibrate.hpp"
+#include "core/calibrator.hpp"
 #include "core/geometry.hpp"
 #include "core/interrupt.hpp"
 #include "io/dataset.hpp"
+#include "io/outcome_yaml.hpp"
 #include "io/output_path.hpp"
 
 namespace scenecal::cli {
 
 namespace {
 
+// The alt scheme's options (CalibrationOptions::alternating), with the core's
+// defaults; angles in degrees as the command line takes them.
+struct AlternatingArguments {
+  std::string backend = "threads";  // threads | mpi
+  int alternations = kCoreDefaults.alternating.max_alternations;
+  int stage_alternations = kCoreDefaults.alternating.stage_alternations;
+  double shrink = kCoreDefaults.alternating.covariance_shrink;
+  std::string penalty_frame = PenaltyFrameName(kCoreDefaults.alternating.penalty_frame);
+  // Not given: by the lower solver (the paper's 5 m / 5 rad with the simplex, looser with lbfgs).
+  std::optional<double> sigma0_translation_m;
+  std::optional<double> sigma0_rotation_rad;
+  double stop_translation_m = kCoreDefaults.alternating.stop_translation_m;
+  double stop_rotation_deg = DegreesFromRadians(kCoreDefaults.alternating.stop_rotation_rad);
+  double camera_sigma_translation_m = kCoreDefaults.alternating.default_camera_sigma_translation_m;
+  double camera_sigma_rotation_deg = DegreesFromRadians(kCoreDefaults.alternating.default_camera_sigma_rotation_rad);
+
+  void ApplyTo(AlternatingSettings* settings) const {
+    settings->max_alternations = alternations;
+    settings->stage_alternations = stage_alternations;
+    settings->covariance_shrink = shrink;
+    ParsePenaltyFrame(penalty_frame, &settings->penalty_frame);  // the CLI checked the name
+    settings->initial_sigma_translation_m = sigma0_translation_m.value_or(0.0);
+    settings->initial_sigma_rotation_rad = sigma0_rotation_rad.value_or(0.0);
+    settings->stop_translation_m = stop_translation_m;
+    settings->stop_rotation_rad = RadiansFromDegrees(stop_rotation_deg);
+    settings->default_camera_sigma_translation_m = camera_sigma_translation_m;
+    settings->default_camera_sigma_rotation_rad = RadiansFromDegrees(camera_sigma_rotation_deg);
+  }
+};
+
 struct CalibrateArguments {
   std::string dataset;
   std::string output;
-  std::string scheme = "alt";
+  std::string scheme = CalibrationSchemeName(kCoreDefaults.scheme);
   CostArguments cost;  // metric, scenes, swathes, histogram, normalisation, occlusion
   MotionCorrectionArguments motion;
-  std::string lower_solver = "simplex";
-  int lbfgs_iterations = 100;
-  int threads = 0;
-  std::uint64_t seed = 1;
-  double time_budget_s = 0.0;
-  int max_iterations = 200;
-  std::string stages = "1:0.004:2,0.3:0.0015:1,0.1:0:1";
-  double step_translation_m = 0.05;
-  double step_rotation_deg = 1.0;
+  std::string lower_solver = LowerSolverName(kCoreDefaults.lower_solver);
+  int lbfgs_iterations = kCoreDefaults.gradient.max_iterations;
+  int threads = kCoreDefaults.threads;
+  std::uint64_t seed = kCoreDefaults.seed;
+  double time_budget_s = kCoreDefaults.time_budget_s;
+  int max_iterations = kCoreDefaults.nelder_mead.max_iterations;
+  std::string stages = StageScheduleText(kCoreDefaults.stages);
+  double step_translation_m = kCoreDefaults.nelder_mead.initial_step_translation_m;
+  double step_rotation_deg = DegreesFromRadians(kCoreDefaults.nelder_mead.initial_step_rotation_rad);
   std::string rotation_pivot = "origin";
   double perturb_translation_m = 0.0;
   double perturb_rotation_deg = 0.0;
@@ -144,6 +175,7 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
   options.threads = args.threads;
   options.seed = args.seed;
   options.time_budget_s = args.time_budget_s;
+  args.alternating.ApplyTo(&options.alternating);
   std::string why;
   if (!options.IsValid(&why)) {
     spdlog::error("invalid options: {}", why);
@@ -234,15 +266,10 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
                  "costs ~{} plain cost evaluations",
                  kGradientEvaluationCost);
   }
-  CalibrationOutcome outcome;
-  std::optional<AlternatingRun> alternating_run;
-  if (options.scheme == CalibrationScheme::kAlt) {
-    alternating_run = RunAlternating(input, options, args.alternating, group);
-    if (alternating_run->wrote_nothing) return kExitSuccess;  // a serving MPI rank; rank 0 writes
-    outcome = alternating_run->outcome;
-  } else {
-    outcome = Calibrate(input, options, [](const std::string& message) { spdlog::info("{}", message); });
-  }
+  Calibrator calibrator(input, options, [](const std::string& message) { spdlog::info("{}", message); });
+  std::optional<CalibrationOutcome> solved = SolveOnGroup(calibrator, group);
+  if (!solved) return kExitSuccess;  // a serving MPI rank; rank 0 writes
+  CalibrationOutcome& outcome = *solved;
   if (outcome.status == CalibrationStatus::kInvalidOptions) {
     spdlog::error("{}", outcome.why);
     return kExitInvalidInput;
@@ -291,7 +318,7 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
       spdlog::info("uncertainty: the frames' drift corrections are held as estimated at the answer; their own "
                    "freedom is not in it (with --motion-correction the error can be several times larger)");
     }
-    extra["uncertainty"] = ReportUncertainty(input, options, &result);
+    extra["uncertainty"] = ReportUncertainty(calibrator, &result);
   }
   if (!args.no_basin_check) {
     if (budget_spent()) {
@@ -299,36 +326,19 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
       spdlog::warn("no basin check: the time budget ({} s) is spent", args.time_budget_s);
       result.settings["basin_check"] = "skipped: time budget spent";
     } else {
-      extra["basin_check"] = ReportBasinCheck(input, options, args.basin_offset_deg, &result);
+      extra["basin_check"] = ReportBasinCheck(calibrator, args.basin_offset_deg, &result);
     }
   }
   result.timings_s["total"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   for (const std::string& warning : result.warnings) spdlog::warn("{}", warning);
-  if (!outcome.motion_corrections.empty()) {
-    // Each frame's drift correction: what the odometry did over its swathe, as the images saw it.
-    YAML::Node frames(YAML::NodeType::Sequence);
-    for (const FrameMotionCorrection& frame : outcome.motion_corrections) {
-      YAML::Node entry;
-      entry["camera"] = frame.camera;
-      entry["lidar"] = frame.lidar;
-      entry["image_t_us"] = frame.image_t_us;
-      entry["scale_percent"] = 100.0 * frame.correction.scale;
-      entry["turn_a_deg_per_m"] = DegreesFromRadians(frame.correction.turn_a_rad_per_m);
-      entry["turn_b_deg_per_m"] = DegreesFromRadians(frame.correction.turn_b_rad_per_m);
-      entry["roll_deg_per_m"] = DegreesFromRadians(frame.correction.roll_rad_per_m);
-      frames.push_back(entry);
-    }
-    extra["motion_correction"] = frames;
-  }
-  if (alternating_run) {
-    // The per-alternation history (lower and upper solutions per pair) for the paper's Fig. 4 and 6.
-    extra["history"] = HistoryYaml(alternating_run->details, alternating_run->problem);
-  }
+  // Each frame's drift correction: what the odometry did over its swathe, as the images saw it.
+  if (!outcome.motion_corrections.empty()) extra["motion_correction"] = io::MotionCorrectionYaml(outcome.motion_corrections);
+  // The per-alternation history (lower and upper solutions per pair) for the paper's Fig. 4 and 6.
+  if (outcome.alternating) extra["history"] = io::AlternatingHistoryYaml(*outcome.alternating);
   // The report first: it takes a while, and an interruption or a failure
   // there must not leave a result file without the report asked for.
   if (!args.report_dir.empty()) {
-    WriteCalibrationReport(args.report_dir, input, options, outcome, alternating_run ? &*alternating_run : nullptr,
-                           dataset);
+    WriteCalibrationReport(args.report_dir, calibrator, outcome, dataset);
   }
   io::WriteCalibrationResult(args.output, result, extra);
   spdlog::info("wrote {} ({})", args.output, result.termination);

@@ -21,14 +21,13 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
-#include "cli/calibrate_alt.hpp"
 #include "cli/commands.hpp"
 #include "cli/cost_arguments.hpp"
 #include "cli/load_input.hpp"
 #include "cli/setting.hpp"
 #include "cli/validators.hpp"
-#include "core/calibrate.hpp"
 #include "core/calibrate_alternating.hpp"
+#include "core/calibrator.hpp"
 #include "core/geometry.hpp"
 #include "io/dataset.hpp"
 #include "io/error.hpp"
@@ -51,17 +50,18 @@ struct ExperimentArguments {
   double perturb_rotation_deg = 3.0;
   std::vector<std::string> schemes = {"once", "joint", "alt"};
   std::vector<std::string> metrics = {"nid", "mi"};
-  int scenes = 30;
-  int alternations = 20;
-  int stage_alternations = 0;           // alt: stages spread over the first N (0 = all)
-  std::string penalty_frame = "lidar";  // alt: where the penalty's sigmas hold
-  int threads = 0;
+  int scenes = kCoreDefaults.scenes.scenes_per_camera;
+  int alternations = kCoreDefaults.alternating.max_alternations;
+  int stage_alternations = kCoreDefaults.alternating.stage_alternations;  // alt: stages over the first N (0 = all)
+  // alt: where the penalty's sigmas hold.
+  std::string penalty_frame = PenaltyFrameName(kCoreDefaults.alternating.penalty_frame);
+  int threads = kCoreDefaults.threads;
   std::string image_size;     // WxH; empty: the simulator's default
   double distance_m = 380.0;  // simulated drive length
-  int max_iterations = 200;
-  std::string lower_solver = "simplex";  // lbfgs: B-spline binning for every run
-  std::string stages = "1:0.004:2,0.3:0.0015:1,0.1:0:1";
-  double swathe_length_m = 10.0;
+  int max_iterations = kCoreDefaults.nelder_mead.max_iterations;
+  std::string lower_solver = LowerSolverName(kCoreDefaults.lower_solver);  // lbfgs: B-spline binning for every run
+  std::string stages = StageScheduleText(kCoreDefaults.stages);
+  double swathe_length_m = kCoreDefaults.scenes.swathe_length_m;
   int overlay_scenes = 1;
   bool force = false;
   std::string setting;                // --setting (cli/setting.hpp)
@@ -282,11 +282,10 @@ int RunExperiment(const ExperimentArguments& given) {
     spdlog::error("invalid options: {}", why);
     return kExitInvalidInput;
   }
-  AlternatingArguments alternating_arguments;
-  alternating_arguments.alternations = args.alternations;
-  alternating_arguments.stage_alternations = args.stage_alternations;
-  alternating_arguments.penalty_frame = args.penalty_frame;
-  if (!MakeAlternatingOptions(options, alternating_arguments).IsValid(&why)) {
+  options.alternating.max_alternations = args.alternations;
+  options.alternating.stage_alternations = args.stage_alternations;
+  ParsePenaltyFrame(args.penalty_frame, &options.alternating.penalty_frame);  // the CLI checked the name
+  if (!AlternatingOptionsFor(options).IsValid(&why)) {
     spdlog::error("invalid alt options: {}", why);
     return kExitInvalidInput;
   }
@@ -411,19 +410,11 @@ int RunExperiment(const ExperimentArguments& given) {
         run_options.cost.metric = *ParseMetricKind(metric);
         const auto run_start = std::chrono::steady_clock::now();
         const auto log_progress = [](const std::string& message) { spdlog::debug("{}", message); };
-        CalibrationOutcome outcome;
-        AlternatingResult details;
-        if (run_options.scheme == CalibrationScheme::kAlt) {
-          AlternatingProblem problem;
-          outcome = CalibrateAlternating(input, run_options, MakeAlternatingOptions(run_options, alternating_arguments),
-                                         log_progress, &details, &problem);
-        } else {
-          outcome = Calibrate(input, run_options, log_progress);
-        }
+        const CalibrationOutcome outcome = Calibrate(input, run_options, log_progress);
         const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - run_start).count();
         int evaluations = 0;
         for (const OptimisationReport& optimisation : outcome.optimisations) evaluations += optimisation.evaluations;
-        if (evaluations == 0) evaluations = details.total_evaluations;
+        if (evaluations == 0 && outcome.alternating) evaluations = outcome.alternating->solved.total_evaluations;
         std::string summary;
         for (const LidarInfo& lidar : input.rig.lidars) {
           RunRecord run;

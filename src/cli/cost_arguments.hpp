@@ -17,33 +17,37 @@
 
 namespace scenecal::cli {
 
+// The core's defaults: every option below starts from them (and --help shows them).
+inline const CalibrationOptions kCoreDefaults{};
+
 struct CostArguments {
-  std::string metric = "nid";
-  int scenes = 30;
-  double swathe_length_m = 10.0;
-  std::string direction = "forward";
-  int bins = 32;
-  std::string binning = "hard";
-  std::string normalise_reflectance = "rank";
-  std::string normalise_intensity = "none";
-  double image_highpass = 0.0;  // fraction of the image width; 0 = off
+  std::string metric = MetricKindName(kCoreDefaults.cost.metric);
+  int scenes = kCoreDefaults.scenes.scenes_per_camera;
+  double swathe_length_m = kCoreDefaults.scenes.swathe_length_m;
+  std::string direction = SwatheDirectionName(kCoreDefaults.scenes.direction);
+  int bins = kCoreDefaults.cost.histogram.reflectance_bins;
+  std::string binning = BinningName(kCoreDefaults.cost.histogram.binning);
+  std::string normalise_reflectance = NormalisationName(kCoreDefaults.normalisation.reflectance);
+  std::string normalise_intensity = NormalisationName(kCoreDefaults.normalisation.intensity);
+  double image_highpass = kCoreDefaults.normalisation.intensity_highpass_width_fraction;  // of the image width; 0 = off
   std::string image_channel = "grey";  // io::ImageChannel: grey | exg
-  int min_points = 300;
-  int max_scans_per_scene = 0;
-  double swathe_trim_margin_m = 1.0;
-  double min_speed_mps = 0.5;
-  double odometry_scale_percent = 0.0;  // a known scale error of the odometry
-  bool no_occlusion = false;
-  int occlusion_cell_px = 0;               // 0 = automatic (image width / 80)
-  double occlusion_relative_margin = 0.2;  // hidden if depth > nearest * (1 + relative) + absolute
-  double occlusion_absolute_margin_m = 0.3;
-  double refresh_border_px = 0.0;
-  double min_range_m = 1.0;    // lidar points nearer than this (lidar frame) are dropped
-  double max_range_m = 100.0;  // and farther than this
-  double range_split_m = 0.0;  // 0 = one histogram per scene
-  int thin = 0;                // points kept per crowded image cell; 0 = off
-  int thin_cell_px = 4;
-  double thin_margin_px = 128.0;
+  int min_points = kCoreDefaults.cost.min_points_per_scene;
+  int max_scans_per_scene = kCoreDefaults.scenes.max_scans_per_scene;
+  double swathe_trim_margin_m = kCoreDefaults.swathe_trim_margin_m;
+  double min_speed_mps = kCoreDefaults.scenes.min_speed_mps;
+  double odometry_scale_percent = 100.0 * kCoreDefaults.scenes.odometry_scale;  // a known scale error of the odometry
+  bool no_occlusion = !kCoreDefaults.cost.swathe.occlusion;
+  int occlusion_cell_px = kCoreDefaults.cost.swathe.occlusion_cell_px;  // 0 = automatic (image width / 80)
+  // Hidden if depth > nearest * (1 + relative) + absolute.
+  double occlusion_relative_margin = kCoreDefaults.cost.swathe.occlusion_relative_margin;
+  double occlusion_absolute_margin_m = kCoreDefaults.cost.swathe.occlusion_absolute_margin_m;
+  double refresh_border_px = kCoreDefaults.cost.swathe.refresh_border_px;
+  double min_range_m = kCoreDefaults.cost.swathe.min_range_m;  // lidar points nearer than this (lidar frame) are dropped
+  double max_range_m = kCoreDefaults.cost.swathe.max_range_m;  // and farther than this
+  double range_split_m = kCoreDefaults.range_split_m;          // 0 = one histogram per scene
+  int thin = kCoreDefaults.thin_max_points_per_cell;           // points kept per crowded image cell; 0 = off
+  int thin_cell_px = kCoreDefaults.thin_cell_px;
+  double thin_margin_px = kCoreDefaults.thin_margin_px;
   // Set by AddCostOptions; after parsing, count() > 0 when given on the command line.
   CLI::Option* bins_option = nullptr;
   CLI::Option* binning_option = nullptr;
@@ -66,9 +70,9 @@ void ApplyCostArguments(const CostArguments& args, CalibrationOptions* options);
 // The per-frame drift correction of `calibrate` (CalibrationOptions::motion_correction).
 struct MotionCorrectionArguments {
   std::vector<std::string> terms;  // of turn, scale, roll, drive-scale; empty = off
-  int first_stage = 1;
-  double max_scale_percent = 2.0;
-  double max_rate_deg_per_m = 0.05;
+  int first_stage = kCoreDefaults.motion_correction_first_stage;
+  double max_scale_percent = 100.0 * kCoreDefaults.motion.max_scale;
+  double max_rate_deg_per_m = DegreesFromRadians(kCoreDefaults.motion.max_rate_rad_per_m);
 };
 void AddMotionCorrectionOptions(CLI::App* command, MotionCorrectionArguments* args);
 void ApplyMotionCorrectionArguments(const MotionCorrectionArguments& args, CalibrationOptions* options);

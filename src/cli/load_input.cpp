@@ -1,5 +1,7 @@
 #include "cli/load_input.hpp"
 
+#include "core/number_text.hpp"
+
 #include <algorithm>
 #include <exception>
 #include <set>
@@ -17,68 +19,26 @@
 
 namespace scenecal::cli {
 
+namespace {
+
+void LogSelection(const SceneSelection& selection) {
+  std::istringstream report(selection.Report());
+  for (std::string line; std::getline(report, line);) spdlog::info("{}", line);
+}
+
+}  // namespace
+
 LoadedScenes SelectAndLoadScenes(const io::Dataset& dataset, const SceneOptions& scene_options,
                                  CalibrationInput* input, io::ImageChannel channel) {
-  std::map<std::string, std::vector<TimeUs>> image_times, scan_times;
-  for (const auto& [camera, files] : dataset.images) {
-    for (const io::SensorFile& f : files) image_times[camera].push_back(f.t_us);
-  }
-  for (const auto& [lidar, files] : dataset.scans) {
-    for (const io::SensorFile& f : files) scan_times[lidar].push_back(f.t_us);
-  }
-  input->selection = SelectScenes(dataset.rig, dataset.trajectory, image_times, scan_times, scene_options);
-  std::istringstream report(input->selection.Report());
-  for (std::string line; std::getline(report, line);) spdlog::info("{}", line);
-  // A lidar without scenes is refused here, naming the selection step that
-  // removed its frames (not later, as if the images lacked information).
-  for (const LidarInfo& lidar : dataset.rig.lidars) {
-    const std::string why = input->selection.WhyNoScenes(lidar);
-    if (why.empty()) continue;
-    std::string advice;
-    if (lidar.kind == LidarKind::k2d && scene_options.swathe_length_m > input->selection.trajectory_length_m) {
-      advice = " Record a longer drive, or shorten --swathe-length (at most the drive's length).";
-    }
-    throw std::runtime_error("the data cannot be calibrated: " + why + advice);
-  }
-
-  // Load only what the scenes use, in parallel.
-  std::vector<std::pair<std::string, const io::SensorFile*>> image_files, scan_files;
-  {
-    std::set<std::pair<std::string, TimeUs>> images_needed, scans_needed;
-    for (const Scene& scene : input->selection.scenes) {
-      images_needed.insert({scene.camera, scene.image_t_us});
-      for (const SwatheScan& scan : scene.scans) scans_needed.insert({scene.lidar, scan.t_us});
-    }
-    const auto find = [](const std::vector<io::SensorFile>& files, TimeUs t) {
-      const auto it = std::lower_bound(files.begin(), files.end(), t,
-                                       [](const io::SensorFile& f, TimeUs time) { return f.t_us < time; });
-      return it != files.end() && it->t_us == t ? &*it : nullptr;
-    };
-    for (const auto& [camera, t] : images_needed) image_files.push_back({camera, find(dataset.images.at(camera), t)});
-    for (const auto& [lidar, t] : scans_needed) scan_files.push_back({lidar, find(dataset.scans.at(lidar), t)});
-  }
-  spdlog::info("loading {} images and {} scans", image_files.size(), scan_files.size());
-  std::vector<GreyImage> images(image_files.size());
-  std::vector<LidarScan> scans(scan_files.size());
-  tbb::parallel_for(std::size_t{0}, image_files.size(), [&](std::size_t i) {
-    ThrowIfInterrupted();
-    images[i] = io::ReadImage(*image_files[i].second, dataset.rig.FindCamera(image_files[i].first)->model, channel);
-  });
-  tbb::parallel_for(std::size_t{0}, scan_files.size(),
-                    [&](std::size_t i) {
-                      ThrowIfInterrupted();
-                      scans[i] = io::ReadScan(*scan_files[i].second);
-                    });
   LoadedScenes loaded;
-  loaded.images = images.size();
-  loaded.scans = scans.size();
-  for (std::size_t i = 0; i < images.size(); ++i) {
-    input->images[image_files[i].first][image_files[i].second->t_us] = std::move(images[i]);
+  try {
+    loaded = io::LoadCalibrationInput(dataset, scene_options, input, channel);
+  } catch (const io::CannotCalibrate&) {
+    LogSelection(input->selection);
+    throw;
   }
-  for (std::size_t i = 0; i < scans.size(); ++i) {
-    loaded.lidar_points += scans[i].points.size();
-    input->scans[scan_files[i].first][scan_files[i].second->t_us] = std::move(scans[i]);
-  }
+  LogSelection(input->selection);
+  spdlog::info("loaded {} images and {} scans", loaded.images, loaded.scans);
   return loaded;
 }
 
@@ -113,6 +73,15 @@ Eigen::Isometry3d PerturbExactly(const Eigen::Isometry3d& T, double translation_
   moved.linear() = rotation * T.linear();
   moved.translation() = T.translation() + translation;
   return moved;
+}
+
+std::string StageScheduleText(const std::vector<OptimisationStage>& stages) {
+  std::string text;
+  for (const OptimisationStage& stage : stages) {
+    text += (text.empty() ? "" : ",") + NumberText(stage.step_scale) + ":" + NumberText(stage.blur_fraction) + ":" +
+            std::to_string(stage.restarts);
+  }
+  return text;
 }
 
 bool ParseStageSchedule(const std::string& text, std::vector<OptimisationStage>* stages) {

@@ -12,21 +12,15 @@
 #include <Eigen/Geometry>
 
 #include "core/calibrate.hpp"
+#include "io/calibration_input.hpp"
 #include "io/dataset.hpp"
 
 namespace scenecal::cli {
 
-struct LoadedScenes {
-  std::size_t images = 0;        // images read
-  std::size_t scans = 0;         // scans read
-  std::size_t lidar_points = 0;  // points in the scans read
-};
+using io::LoadedScenes;
 
-// Fills input->selection (SelectScenes on the dataset's rig, trajectory and
-// file times with `scene_options`), input->images and input->scans.
-// input->rig is left as the caller set it. Logs the selection report and the
-// counts with spdlog. Throws io::InputError for unreadable files.
-// Images are read as `channel` (io::ReadImage).
+// io::LoadCalibrationInput, logging the selection report and the counts
+// with spdlog.
 LoadedScenes SelectAndLoadScenes(const io::Dataset& dataset, const SceneOptions& scene_options,
                                  CalibrationInput* input, io::ImageChannel channel = io::ImageChannel::kGrey);
 
@@ -54,5 +48,7 @@ Eigen::Isometry3d PerturbExactly(const Eigen::Isometry3d& T, double translation_
 // "SCALE[:BLUR[:RESTARTS]],..." -> coarse-to-fine stages (calibrate's --stages);
 // false when malformed.
 bool ParseStageSchedule(const std::string& text, std::vector<OptimisationStage>* stages);
+// The inverse: "1:0.004:2,0.3:0.0015:1,0.1:0:1" for DefaultStages().
+std::string StageScheduleText(const std::vector<OptimisationStage>& stages);
 
 }  // namespace scenecal::cli

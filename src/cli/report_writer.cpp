@@ -41,10 +41,12 @@ std::optional<Eigen::Isometry3d> ResultCameraLidar(const CalibrationOutcome& out
 
 }  // namespace
 
-void WriteCalibrationReport(const std::string& dir, const CalibrationInput& input, const CalibrationOptions& options,
-                            const CalibrationOutcome& outcome, const AlternatingRun* alt_or_null,
+void WriteCalibrationReport(const std::string& dir, Calibrator& calibrator, const CalibrationOutcome& outcome,
                             const io::Dataset& dataset, const CalibrationReportOptions& report_options) {
   const auto start = std::chrono::steady_clock::now();
+  const CalibrationInput& input = calibrator.Input();
+  const CalibrationOptions& options = calibrator.Options();
+  const AlternatingHistory* alt_or_null = outcome.alternating ? &*outcome.alternating : nullptr;
   const GroundTruth* truth = dataset.ground_truth ? &*dataset.ground_truth : nullptr;
   report::CalibrationReportData data = report::MakeCalibrationReportData(outcome, input.rig, truth);
   data.dataset = dataset.root.string();
@@ -54,19 +56,19 @@ void WriteCalibrationReport(const std::string& dir, const CalibrationInput& inpu
   // Fig. 4: per pair, per alternation (alt only).
   if (alt_or_null != nullptr) {
     const AlternatingProblem& problem = alt_or_null->problem;
-    data.alternations = alt_or_null->details.alternations;
+    data.alternations = alt_or_null->solved.alternations;
     for (std::size_t p = 0; p < problem.pairs.size(); ++p) {
       const AlternatingCamera& camera = problem.cameras[static_cast<std::size_t>(problem.pairs[p].camera)];
       const std::string& lidar = problem.lidars[static_cast<std::size_t>(problem.pairs[p].lidar)].name;
       const CameraInfo* camera_info = input.rig.FindCamera(camera.name);
       std::optional<Eigen::Isometry3d> pair_truth;
       if (camera_info != nullptr) pair_truth = TrueCameraLidar(dataset, *camera_info, lidar);
-      data.convergence.push_back(report::ConvergenceFromHistory(alt_or_null->details.history, static_cast<int>(p),
+      data.convergence.push_back(report::ConvergenceFromHistory(alt_or_null->solved.history, static_cast<int>(p),
                                                                 camera.name + " / " + lidar, pair_truth));
     }
   }
 
-  // Fig. 6 and 9 need each pair's cost: rebuilt here from the same input and options.
+  // Fig. 6 and 9 need each pair's cost: the calibrator's, at the result.
   report::CostSliceOptions slice_options;
   slice_options.samples = report_options.slice_samples;
   slice_options.max_alternations = report_options.slice_alternations;
@@ -78,9 +80,9 @@ void WriteCalibrationReport(const std::string& dir, const CalibrationInput& inpu
     if (camera == nullptr || !T_result) continue;
     const std::string label = pair.camera + " / " + pair.lidar;
     spdlog::info("report: {}: cost slices and overlays", label);
-    PairCost cost = BuildPairCost(input, *camera, pair.lidar, options);
-    if (cost.Scenes().empty()) continue;
-    CorrectMotionAtAnswer(options, {&cost}, camera->T_base_camera * *T_result);
+    PairCost* cost_at_result = calibrator.PairAt(pair.camera, pair.lidar, camera->T_base_camera * *T_result);
+    if (cost_at_result == nullptr) continue;
+    PairCost& cost = *cost_at_result;
     const Eigen::Isometry3d& T_initial = pair.T_camera_lidar_initial;
 
     report::CostSlicePanel panel;
@@ -94,8 +96,8 @@ void WriteCalibrationReport(const std::string& dir, const CalibrationInput& inpu
           alt_pair = static_cast<int>(p);
       }
     }
-    if (alt_pair >= 0 && !alt_or_null->details.history.empty()) {
-      panel.sets = report::SampleAlternationSlices(cost, alt_or_null->details.history, alt_pair, T_initial,
+    if (alt_pair >= 0 && !alt_or_null->solved.history.empty()) {
+      panel.sets = report::SampleAlternationSlices(cost, alt_or_null->solved.history, alt_pair, T_initial,
                                                    slice_options);
     } else {
       const report::TransformCost evaluate = [&cost](const Eigen::Isometry3d& T) { return cost.Evaluate(T); };

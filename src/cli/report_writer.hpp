@@ -6,8 +6,7 @@
 
 #include <string>
 
-#include "cli/calibrate_alt.hpp"
-#include "core/calibrate.hpp"
+#include "core/calibrator.hpp"
 #include "io/dataset.hpp"
 
 namespace scenecal::cli {
@@ -18,13 +17,12 @@ struct CalibrationReportOptions {
   int overlay_scenes_per_pair = 2;  // scenes with the most projected points
 };
 
-// Builds and writes DIR/report.html and its PNGs. `input.rig` holds the
-// initial guesses the calibration started from; `alt_or_null` the alternating
-// run's history (nullptr for once / joint: the convergence section says there
-// is none). Errors to the truth are shown when the dataset has ground truth.
+// Builds and writes DIR/report.html and its PNGs from the calibrator that
+// solved `outcome` (its input's rig holds the initial guesses; its pair costs
+// give the cost slices and overlays); outcome.alternating the alternating
+// run's history (none for once / joint: the convergence section says so). Errors to the truth are shown when the dataset has ground truth.
 // Throws std::runtime_error when writing fails. Logs progress with spdlog.
-void WriteCalibrationReport(const std::string& dir, const CalibrationInput& input, const CalibrationOptions& options,
-                            const CalibrationOutcome& outcome, const AlternatingRun* alt_or_null,
+void WriteCalibrationReport(const std::string& dir, Calibrator& calibrator, const CalibrationOutcome& outcome,
                             const io::Dataset& dataset, const CalibrationReportOptions& report_options = {});
 
 }  // namespace scenecal::cli

@@ -22,8 +22,7 @@ YAML::Node Numbers(const double* values, int count) {
 
 }  // namespace
 
-YAML::Node ReportUncertainty(const CalibrationInput& input, const CalibrationOptions& options,
-                             CalibrationResult* result) {
+YAML::Node ReportUncertainty(Calibrator& calibrator, CalibrationResult* result) {
   const auto start = std::chrono::steady_clock::now();
   const UncertaintyOptions uncertainty_options;
   spdlog::info("estimating the uncertainty of the result (B-spline metric; paired scene-by-scene cost changes along "
@@ -31,7 +30,7 @@ YAML::Node ReportUncertainty(const CalibrationInput& input, const CalibrationOpt
                100.0 * uncertainty_options.max_search_units * uncertainty_options.unit_translation_m,
                uncertainty_options.max_search_units * uncertainty_options.unit_rotation_rad * 180.0 / M_PI);
   const std::vector<LidarUncertainty> estimates =
-      EstimateCalibrationUncertainty(input, options, *result, uncertainty_options);
+      calibrator.EstimateUncertainty(*result, uncertainty_options);
   YAML::Node node(YAML::NodeType::Map);
   const double deg = 180.0 / M_PI;
   for (std::size_t i = 0; i < estimates.size(); ++i) {
@@ -97,16 +96,14 @@ YAML::Node ReportUncertainty(const CalibrationInput& input, const CalibrationOpt
   return node;
 }
 
-YAML::Node ReportBasinCheck(const CalibrationInput& input, const CalibrationOptions& options, double offset_deg,
-                            CalibrationResult* result) {
+YAML::Node ReportBasinCheck(Calibrator& calibrator, double offset_deg, CalibrationResult* result) {
   const auto start = std::chrono::steady_clock::now();
   BasinCheckOptions check_options;
   check_options.offset_rad = RadiansFromDegrees(offset_deg);
   spdlog::info("basin check: minimising the joint cost again from the answer turned +-{} deg about each base axis "
                "(6 runs per lidar; --no-basin-check skips it)",
                offset_deg);
-  const std::vector<LidarBasinCheck> checks =
-      CheckBasins(input, options, *result, check_options, [](const std::string& message) { spdlog::info("{}", message); });
+  const std::vector<LidarBasinCheck> checks = calibrator.CheckBasins(*result, check_options);
   const double deg = 180.0 / M_PI;
   YAML::Node node(YAML::NodeType::Map);
   for (const LidarBasinCheck& check : checks) {
@@ -159,7 +156,7 @@ YAML::Node ReportBasinCheck(const CalibrationInput& input, const CalibrationOpti
       where = fmt::format("; the start turned {:+g} deg about base {} ended at a lower cost ({:.6f} against {:.6f})",
                           lowest->sign * offset_deg, "xyz"[lowest->axis], lowest->cost_end, check.cost_answer);
     }
-    const LidarInfo* lidar = input.rig.FindLidar(check.lidar);
+    const LidarInfo* lidar = calibrator.Input().rig.FindLidar(check.lidar);
     const bool push_broom = lidar != nullptr && lidar->kind == LidarKind::k2d;
     const bool setting_used = result->settings.count("setting") != 0;
     const std::string advice =

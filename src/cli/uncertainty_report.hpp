@@ -8,21 +8,20 @@
 
 #include <yaml-cpp/yaml.h>
 
-#include "core/calibrate.hpp"
 #include "core/calibration_result.hpp"
+#include "core/calibrator.hpp"
 
 namespace scenecal::cli {
 
-// Estimates every lidar's uncertainty at the result and adds warnings; returns
-// the `uncertainty` mapping (by lidar name) for the result file. Logs with spdlog.
-YAML::Node ReportUncertainty(const CalibrationInput& input, const CalibrationOptions& options,
-                             CalibrationResult* result);
+// Estimates every lidar's uncertainty at the result, on the calibrator's pair
+// costs, and adds warnings; returns the `uncertainty` mapping (by lidar name)
+// for the result file. Logs with spdlog.
+YAML::Node ReportUncertainty(Calibrator& calibrator, CalibrationResult* result);
 
 // The global check (core/basin_check.hpp): restarts from the answer turned
 // +-offset_deg about each base axis; logs each, adds a warning per lidar whose
 // restarts do not come back, and returns the `basin_check` mapping (by lidar
 // name) for the result file.
-YAML::Node ReportBasinCheck(const CalibrationInput& input, const CalibrationOptions& options, double offset_deg,
-                            CalibrationResult* result);
+YAML::Node ReportBasinCheck(Calibrator& calibrator, double offset_deg, CalibrationResult* result);
 
 }  // namespace scenecal::cli

@@ -8,50 +8,38 @@
 
 #include "core/interrupt.hpp"
 #include "core/upper_level.hpp"
+#include "core/validation.hpp"
 
 namespace scenecal {
 
 bool AlternatingOptions::IsValid(std::string* why) const {
-  const auto fail = [&](const std::string& message) {
-    if (why) *why = message;
-    return false;
-  };
-  if (max_alternations < 1) return fail("max_alternations must be at least 1");
-  if (min_alternations < 1) return fail("min_alternations must be at least 1");
+  if (max_alternations < 1) return Invalid(why, "max_alternations must be at least 1");
+  if (min_alternations < 1) return Invalid(why, "min_alternations must be at least 1");
   if (stage_alternations < 0 || stage_alternations > max_alternations)
-    return fail("stage_alternations (" + std::to_string(stage_alternations) + ") must be between 0 (all) and " +
+    return Invalid(why, "stage_alternations (" + std::to_string(stage_alternations) + ") must be between 0 (all) and " +
                 "max_alternations (" + std::to_string(max_alternations) + ")");
   if (!(initial_sigma_translation_m > 0) || !(initial_sigma_rotation_rad > 0))
-    return fail("initial penalty sigmas must be positive");
-  if (!(covariance_shrink > 0 && covariance_shrink < 1)) return fail("covariance_shrink w must be in (0, 1)");
-  if (!(stop_translation_m >= 0) || !(stop_rotation_rad >= 0)) return fail("stop thresholds must be non-negative");
+    return Invalid(why, "initial penalty sigmas must be positive");
+  if (!(covariance_shrink > 0 && covariance_shrink < 1)) return Invalid(why, "covariance_shrink w must be in (0, 1)");
+  if (!(stop_translation_m >= 0) || !(stop_rotation_rad >= 0)) return Invalid(why, "stop thresholds must be non-negative");
   if (!(default_camera_sigma_translation_m >= 0) || !(default_camera_sigma_rotation_rad >= 0))
-    return fail("default camera sigmas must be non-negative");
-  if (!(time_budget_s >= 0)) return fail("time budget must be non-negative");
+    return Invalid(why, "default camera sigmas must be non-negative");
+  if (!(time_budget_s >= 0)) return Invalid(why, "time budget must be non-negative");
   if (!(agreement_translation_m > 0) || !(agreement_rotation_rad > 0))
-    return fail("agreement thresholds must be positive");
+    return Invalid(why, "agreement thresholds must be positive");
   for (const double scale : lower_step_scale) {
-    if (!(scale > 0) || !std::isfinite(scale)) return fail("lower-level step scales must be positive numbers");
+    if (!(scale > 0) || !std::isfinite(scale)) return Invalid(why, "lower-level step scales must be positive numbers");
   }
   std::string lower_why;
-  if (!lower.IsValid(&lower_why)) return fail("lower level: " + lower_why);
-  if (!lower_gradient.IsValid(&lower_why)) return fail("lower level (lbfgs): " + lower_why);
+  if (!lower.IsValid(&lower_why)) return Invalid(why, "lower level: " + lower_why);
+  if (!lower_gradient.IsValid(&lower_why)) return Invalid(why, "lower level (lbfgs): " + lower_why);
   return true;
 }
 
-const char* PenaltyFrameName(PenaltyFrame frame) {
-  switch (frame) {
-    case PenaltyFrame::kLidar: return "lidar";
-    case PenaltyFrame::kCamera: return "camera";
-  }
-  return "unknown";
-}
+const char* PenaltyFrameName(PenaltyFrame frame) { return EnumName(kPenaltyFrameNames, frame); }
 
 bool ParsePenaltyFrame(const std::string& name, PenaltyFrame* frame) {
-  if (name == "lidar") *frame = PenaltyFrame::kLidar;
-  else if (name == "camera") *frame = PenaltyFrame::kCamera;
-  else return false;
-  return true;
+  return ParseEnumName(kPenaltyFrameNames, name, frame);
 }
 
 Matrix6d PairPenaltyInformation(double sigma_translation_m, double sigma_rotation_rad, PenaltyFrame frame,
@@ -66,18 +54,14 @@ Matrix6d PairPenaltyInformation(double sigma_translation_m, double sigma_rotatio
 }
 
 bool AlternatingProblem::IsValid(std::string* why) const {
-  const auto fail = [&](const std::string& message) {
-    if (why) *why = message;
-    return false;
-  };
-  if (cameras.empty()) return fail("no cameras");
-  if (lidars.empty()) return fail("no lidars");
-  if (pairs.empty()) return fail("no (camera, lidar) pair with data");
-  if (base_camera < 0 || base_camera >= static_cast<int>(cameras.size())) return fail("base camera out of range");
+  if (cameras.empty()) return Invalid(why, "no cameras");
+  if (lidars.empty()) return Invalid(why, "no lidars");
+  if (pairs.empty()) return Invalid(why, "no (camera, lidar) pair with data");
+  if (base_camera < 0 || base_camera >= static_cast<int>(cameras.size())) return Invalid(why, "base camera out of range");
   for (const AlternatingPair& pair : pairs) {
     if (pair.camera < 0 || pair.camera >= static_cast<int>(cameras.size()) || pair.lidar < 0 ||
         pair.lidar >= static_cast<int>(lidars.size()))
-      return fail("a pair names a camera or lidar out of range");
+      return Invalid(why, "a pair names a camera or lidar out of range");
   }
   return true;
 }

@@ -20,6 +20,7 @@
 
 #include <Eigen/Geometry>
 
+#include "core/enum_names.hpp"
 #include "core/geometry.hpp"
 #include "core/gradient_solver.hpp"
 #include "core/nelder_mead.hpp"
@@ -38,6 +39,8 @@ namespace scenecal {
 //    information for a lidar 4 m away with sigma_t = sigma_phi (numerically),
 //    which held the lower levels' rotations back (docs/findings.md, "The alternating scheme's penalty holds in the lidar frame").
 enum class PenaltyFrame { kLidar, kCamera };
+inline constexpr auto kPenaltyFrameNames =
+    MakeEnumNames<PenaltyFrame>({{PenaltyFrame::kLidar, "lidar"}, {PenaltyFrame::kCamera, "camera"}});
 const char* PenaltyFrameName(PenaltyFrame frame);  // "lidar", "camera"
 bool ParsePenaltyFrame(const std::string& name, PenaltyFrame* frame);
 

@@ -8,27 +8,24 @@
 #include <fmt/format.h>
 
 #include "core/gradient_solver.hpp"
+#include "core/validation.hpp"
 
 namespace scenecal {
 
 bool BasinCheckOptions::IsValid(std::string* why) const {
-  const auto fail = [&](const std::string& message) {
-    if (why != nullptr) *why = message;
-    return false;
-  };
   if (!(std::isfinite(offset_rad) && offset_rad > 0.0 && offset_rad < kPi / 4))
-    return fail("basin check: the start offset must be in (0, 45) deg");
+    return Invalid(why, "basin check: the start offset must be in (0, 45) deg");
   if (!(std::isfinite(agree_translation_m) && agree_translation_m > 0.0))
-    return fail("basin check: the translation agreement bound must be a positive number of metres");
+    return Invalid(why, "basin check: the translation agreement bound must be a positive number of metres");
   if (!(std::isfinite(agree_rotation_rad) && agree_rotation_rad > 0.0))
-    return fail("basin check: the rotation agreement bound must be a positive angle");
-  if (first_stage < 0) return fail("basin check: the first stage index must be >= 0");
+    return Invalid(why, "basin check: the rotation agreement bound must be a positive angle");
+  if (first_stage < 0) return Invalid(why, "basin check: the first stage index must be >= 0");
   return true;
 }
 
-std::vector<LidarBasinCheck> CheckBasins(const CalibrationInput& input, const CalibrationOptions& options,
-                                         const CalibrationResult& result, const BasinCheckOptions& check_options,
-                                         const ProgressCallback& progress) {
+LidarBasinCheck CheckLidarBasin(const std::vector<PairCost*>& owned, const LidarCalibration& answer,
+                                const CalibrationOptions& options, const BasinCheckOptions& check_options,
+                                const ProgressCallback& progress) {
   using Clock = std::chrono::steady_clock;
   const auto say = [&](const std::string& message) {
     if (progress) progress(message);
@@ -37,82 +34,67 @@ std::vector<LidarBasinCheck> CheckBasins(const CalibrationInput& input, const Ca
   const std::vector<OptimisationStage> stages(options.stages.begin() + first, options.stages.end());
   const OptimisationStage sharp{};  // no blur: the final stage's images
 
-  std::vector<LidarBasinCheck> checks;
-  for (const LidarCalibration& answer : result.lidars) {
-    const auto start = Clock::now();
-    LidarBasinCheck check;
-    check.lidar = answer.lidar;
-    // One lidar at a time: its swathes are released before the next is built.
-    std::vector<std::unique_ptr<PairCost>> owned;
-    std::vector<const PairCost*> pairs;
-    for (const CameraInfo& camera : input.rig.cameras) {
-      auto pair = std::make_unique<PairCost>(BuildPairCost(input, camera, answer.lidar, options));
-      if (pair->SceneCount() == 0) continue;
-      pairs.push_back(pair.get());
-      owned.push_back(std::move(pair));
+  const auto start = Clock::now();
+  LidarBasinCheck check;
+  check.lidar = answer.lidar;
+  const std::vector<const PairCost*> pairs(owned.begin(), owned.end());
+  // Sharp images and visibility at the answer: the reference every end is compared in.
+  const auto prepare_at = [&](const OptimisationStage& stage, const Eigen::Isometry3d& T_base_lidar) {
+    for (PairCost* pair : owned) {
+      PreparePairForStage(*pair, stage, pair->Camera().T_base_camera.inverse() * T_base_lidar);
     }
-    // Sharp images and visibility at the answer: the reference every end is compared in.
-    const auto prepare_at = [&](const OptimisationStage& stage, const Eigen::Isometry3d& T_base_lidar) {
-      for (auto& pair : owned) PreparePairForStage(*pair, stage, pair->Camera().T_base_camera.inverse() * T_base_lidar);
-    };
-    prepare_at(sharp, answer.T_base_lidar);
-    // The restarts keep the drift corrections estimated at the answer.
-    std::vector<PairCost*> corrected;
-    for (auto& pair : owned) corrected.push_back(pair.get());
-    CorrectMotionAtAnswer(options, corrected, answer.T_base_lidar);
-    check.cost_answer = EvaluateJoint(pairs, answer.T_base_lidar);
-    if (!std::isfinite(check.cost_answer)) {
-      check.why = "no usable scene at the answer";
-      checks.push_back(std::move(check));
-      continue;
-    }
-    NelderMeadOptions nelder_mead = options.nelder_mead;
-    if (options.pivot_at_observed_centroid) {
-      nelder_mead.pivot_source = ObservedCentroid(pairs, answer.T_base_lidar).value_or(nelder_mead.pivot_source);
-    }
-
-    check.checked = true;
-    check.agree = true;
-    for (int axis = 0; axis < 3; ++axis) {
-      for (const double sign : {-1.0, 1.0}) {
-        BasinRestart restart;
-        restart.axis = axis;
-        restart.sign = sign;
-        Vector6d offset = Vector6d::Zero();
-        offset(3 + axis) = sign * check_options.offset_rad;
-        Eigen::Isometry3d T = ApplyTransformUpdate(answer.T_base_lidar, offset, TransformUpdate::kAboutSourcePoint);
-        OptimisationReport report;
-        MinimiseWithLowerSolver(
-            options, stages, nelder_mead,
-            [&](const Eigen::Isometry3d& candidate) { return EvaluateJoint(pairs, candidate); },
-            [&](const Eigen::Isometry3d& candidate, Vector6d* gradient) {
-              return EvaluateJointWithGradient(pairs, candidate, nelder_mead.transform_update,
-                                               nelder_mead.pivot_source, gradient);
-            },
-            prepare_at, &T, &report);
-        restart.evaluations = report.evaluations;
-        restart.T_base_lidar_end = T;
-        restart.translation_apart_m = TranslationError(T, answer.T_base_lidar);
-        restart.rotation_apart_rad = RadiansFromDegrees(RotationErrorDegrees(T, answer.T_base_lidar));
-        prepare_at(sharp, answer.T_base_lidar);
-        restart.cost_end = EvaluateJoint(pairs, T);
-        check.evaluations += restart.evaluations;
-        check.max_translation_apart_m = std::max(check.max_translation_apart_m, restart.translation_apart_m);
-        check.max_rotation_apart_rad = std::max(check.max_rotation_apart_rad, restart.rotation_apart_rad);
-        check.agree = check.agree && restart.translation_apart_m <= check_options.agree_translation_m &&
-                      restart.rotation_apart_rad <= check_options.agree_rotation_rad;
-        say(fmt::format("basin check {}: the start turned {:+.2f} deg about base {} ended {:.2f} cm, {:.3f} deg from "
-                        "the answer, cost {:.6f} (answer {:.6f})",
-                        answer.lidar, sign * DegreesFromRadians(check_options.offset_rad), "xyz"[axis],
-                        100.0 * restart.translation_apart_m, DegreesFromRadians(restart.rotation_apart_rad),
-                        restart.cost_end, check.cost_answer));
-        check.restarts.push_back(restart);
-      }
-    }
-    check.seconds = std::chrono::duration<double>(Clock::now() - start).count();
-    checks.push_back(std::move(check));
+  };
+  prepare_at(sharp, answer.T_base_lidar);
+  check.cost_answer = EvaluateJoint(pairs, answer.T_base_lidar);
+  if (!std::isfinite(check.cost_answer)) {
+    check.why = "no usable scene at the answer";
+    return check;
   }
-  return checks;
+  NelderMeadOptions nelder_mead = options.nelder_mead;
+  if (options.pivot_at_observed_centroid) {
+    nelder_mead.pivot_source = ObservedCentroid(pairs, answer.T_base_lidar).value_or(nelder_mead.pivot_source);
+  }
+
+  check.checked = true;
+  check.agree = true;
+  for (int axis = 0; axis < 3; ++axis) {
+    for (const double sign : {-1.0, 1.0}) {
+      BasinRestart restart;
+      restart.axis = axis;
+      restart.sign = sign;
+      Vector6d offset = Vector6d::Zero();
+      offset(3 + axis) = sign * check_options.offset_rad;
+      Eigen::Isometry3d T = ApplyTransformUpdate(answer.T_base_lidar, offset, TransformUpdate::kAboutSourcePoint);
+      OptimisationReport report;
+      MinimiseWithLowerSolver(
+          options, stages, nelder_mead,
+          [&](const Eigen::Isometry3d& candidate) { return EvaluateJoint(pairs, candidate); },
+          [&](const Eigen::Isometry3d& candidate, Vector6d* gradient) {
+            return EvaluateJointWithGradient(pairs, candidate, nelder_mead.transform_update,
+                                             nelder_mead.pivot_source, gradient);
+          },
+          prepare_at, &T, &report);
+      restart.evaluations = report.evaluations;
+      restart.T_base_lidar_end = T;
+      restart.translation_apart_m = TranslationError(T, answer.T_base_lidar);
+      restart.rotation_apart_rad = RadiansFromDegrees(RotationErrorDegrees(T, answer.T_base_lidar));
+      prepare_at(sharp, answer.T_base_lidar);
+      restart.cost_end = EvaluateJoint(pairs, T);
+      check.evaluations += restart.evaluations;
+      check.max_translation_apart_m = std::max(check.max_translation_apart_m, restart.translation_apart_m);
+      check.max_rotation_apart_rad = std::max(check.max_rotation_apart_rad, restart.rotation_apart_rad);
+      check.agree = check.agree && restart.translation_apart_m <= check_options.agree_translation_m &&
+                    restart.rotation_apart_rad <= check_options.agree_rotation_rad;
+      say(fmt::format("basin check {}: the start turned {:+.2f} deg about base {} ended {:.2f} cm, {:.3f} deg from "
+                      "the answer, cost {:.6f} (answer {:.6f})",
+                      answer.lidar, sign * DegreesFromRadians(check_options.offset_rad), "xyz"[axis],
+                      100.0 * restart.translation_apart_m, DegreesFromRadians(restart.rotation_apart_rad),
+                      restart.cost_end, check.cost_answer));
+      check.restarts.push_back(restart);
+    }
+  }
+  check.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  return check;
 }
 
 }  // namespace scenecal

@@ -65,11 +65,12 @@ struct LidarBasinCheck {
   double seconds = 0.0;
 };
 
-// For every lidar of `result` (in its order): the restarts above, with the
-// pair costs rebuilt from `input` with `options` (as the calibration built
-// them). Lidars whose answer has no usable scene are reported unchecked.
-std::vector<LidarBasinCheck> CheckBasins(const CalibrationInput& input, const CalibrationOptions& options,
-                                         const CalibrationResult& result, const BasinCheckOptions& check_options,
-                                         const ProgressCallback& progress = {});
+// The restarts above for one lidar's answer, on its pair costs (those with
+// scenes) prepared at the answer (Calibrator::PairsAt: sharp images,
+// visibility and drift corrections there). Unchecked, with the reason, when
+// the answer has no usable scene. Calibrator::CheckBasins runs it per lidar.
+LidarBasinCheck CheckLidarBasin(const std::vector<PairCost*>& pairs, const LidarCalibration& answer,
+                                const CalibrationOptions& options, const BasinCheckOptions& check_options,
+                                const ProgressCallback& progress = {});
 
 }  // namespace scenecal

@@ -25,7 +25,10 @@
 
 #include <Eigen/Geometry>
 
+#include "core/alternating.hpp"
 #include "core/calibration_result.hpp"
+#include "core/enum_names.hpp"
+#include "core/geometry.hpp"
 #include "core/gradient_solver.hpp"
 #include "core/metric.hpp"
 #include "core/nelder_mead.hpp"
@@ -37,6 +40,8 @@
 namespace scenecal {
 
 enum class CalibrationScheme { kOnce, kJoint, kAlt };
+inline constexpr auto kCalibrationSchemeNames = MakeEnumNames<CalibrationScheme>(
+    {{CalibrationScheme::kOnce, "once"}, {CalibrationScheme::kJoint, "joint"}, {CalibrationScheme::kAlt, "alt"}});
 bool ParseCalibrationScheme(const std::string& name, CalibrationScheme* scheme);  // "once" | "joint" | "alt"
 const char* CalibrationSchemeName(CalibrationScheme scheme);
 
@@ -53,12 +58,45 @@ struct OptimisationStage {
 };
 std::vector<OptimisationStage> DefaultStages();
 
+// Solver options with the first stage's steps (simplex) or parameter scales (lbfgs).
+template <class SolverOptions>
+SolverOptions WithInitialSteps(SolverOptions options, double translation_m, double rotation_rad) {
+  options.initial_step_translation_m = translation_m;
+  options.initial_step_rotation_rad = rotation_rad;
+  return options;
+}
+
+// The alt scheme's own settings (the paper's by default). Its lower level's
+// solver, steps, stages and time budget come from the rest of
+// CalibrationOptions (AlternatingOptionsFor in core/calibrate_alternating.hpp).
+struct AlternatingSettings {
+  int max_alternations = 20;   // the paper: 20
+  int stage_alternations = 0;  // spread the stages over the first this many alternations (0 = over all)
+  double covariance_shrink = 0.5;  // w in P^(i+1) = w P^i, in (0, 1)
+  PenaltyFrame penalty_frame = PenaltyFrame::kLidar;
+  // P^0's sigmas (metres, radians); 0 = by the lower solver: the paper's 5 m /
+  // 5 rad with the simplex, kLbfgsInitialSigma with lbfgs.
+  double initial_sigma_translation_m = 0.0;
+  double initial_sigma_rotation_rad = 0.0;
+  // Early stop once both levels move, and disagree, by less than these.
+  double stop_translation_m = 2e-4;
+  double stop_rotation_rad = RadiansFromDegrees(1e-3);
+  // 1-sigma of known camera transforms that rig.yaml gives no T_base_camera_sigma for.
+  double default_camera_sigma_translation_m = 0.0005;
+  double default_camera_sigma_rotation_rad = RadiansFromDegrees(0.0115);
+  // The levels "agree" at the end within these; otherwise the result warns.
+  double agreement_translation_m = 1e-3;
+  double agreement_rotation_rad = 1.7453e-4;  // 0.01 deg
+};
+
 struct CalibrationOptions {
-  CalibrationScheme scheme = CalibrationScheme::kJoint;
+  CalibrationScheme scheme = CalibrationScheme::kAlt;
+  AlternatingSettings alternating;     // scheme kAlt
   PairCostOptions cost;                // metric, histogram bins and binning, range/occlusion, min points
   NormalisationOptions normalisation;  // reflectance and intensity mapping to [0, 1]
   SceneOptions scenes;                 // used by the caller's SelectScenes; recorded in the settings
-  NelderMeadOptions nelder_mead;       // steps of the first stage, iterations per stage, tolerances
+  // Steps of the first stage (0.05 m, 1 deg), iterations per stage, tolerances.
+  NelderMeadOptions nelder_mead = WithInitialSteps(NelderMeadOptions{}, 0.05, RadiansFromDegrees(1.0));
   // Coarse-to-fine schedule (one entry with scale 1, no blur and no restarts
   // = a single Nelder-Mead run, the paper).
   std::vector<OptimisationStage> stages = DefaultStages();
@@ -70,7 +108,7 @@ struct CalibrationOptions {
   // simplex steps are; the alt lower level caps them by the penalty sigma).
   // Its transform_update and pivot_source are taken from nelder_mead's and the
   // rotation pivot option, so both solvers search the same parameterisation.
-  GradientSolverOptions gradient;
+  GradientSolverOptions gradient = WithInitialSteps(GradientSolverOptions{}, 0.05, RadiansFromDegrees(1.0));
   int threads = 0;           // worker threads for TBB; 0 = all hardware threads
   std::uint64_t seed = 1;    // recorded; the pipeline is deterministic (no random choices)
   double time_budget_s = 0;  // wall-clock budget of Calibrate (from its start); 0 = none. Best point so far kept.
@@ -166,6 +204,12 @@ struct FrameMotionCorrection {
   SwatheMotionCorrection correction;
 };
 
+// alt's per-alternation history (the paper's Fig. 4 and 6) with the names of its pairs.
+struct AlternatingHistory {
+  AlternatingProblem problem;
+  AlternatingResult solved;
+};
+
 struct CalibrationOutcome {
   CalibrationStatus status = CalibrationStatus::kSuccess;
   std::string why;  // for a status other than kSuccess
@@ -173,6 +217,7 @@ struct CalibrationOutcome {
   std::vector<PairReport> pairs;
   std::vector<OptimisationReport> optimisations;
   std::vector<FrameMotionCorrection> motion_corrections;  // per pair and frame, in time order
+  std::optional<AlternatingHistory> alternating;          // scheme alt
 };
 
 // Progress messages (one line each) for the caller to log.

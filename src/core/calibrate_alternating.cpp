@@ -8,15 +8,10 @@
 
 #include <fmt/format.h>
 
+#include "core/number_text.hpp"
+
 namespace scenecal {
 namespace {
-
-std::string Number(double value) {
-  std::ostringstream out;
-  out.precision(6);
-  out << value;
-  return out.str();
-}
 
 // FNV-1a, folding values into a digest.
 struct Digest {
@@ -80,14 +75,14 @@ std::string LevelsApartWarning(const AlternatingOptions& alternating, const Alte
                                  ratio(apart_rad, alternating.stop_rotation_rad, alternating.agreement_rotation_rad),
                                  1.0});
     const int more = static_cast<int>(std::ceil(std::log(gap) / std::log(1.0 / alternating.covariance_shrink)));
-    advice = "the gap shrinks by the penalty's factor w = " + Number(alternating.covariance_shrink) +
+    advice = "the gap shrinks by the penalty's factor w = " + NumberText(alternating.covariance_shrink) +
              " with each alternation after the stages: --alternations " +
              std::to_string(alternating.max_alternations + 2 * more + 4) +
              " (the run stops by itself once the levels have settled) tightens it toward the joint scheme's answer";
   }
-  return "alt: the lower and upper levels ended " + Number(apart_m * 1000.0) + " mm / " +
-         Number(DegreesFromRadians(apart_rad)) + " deg apart (penalty sigma " + Number(last.sigma_translation_m) +
-         " m / " + Number(last.sigma_rotation_rad) +
+  return "alt: the lower and upper levels ended " + NumberText(apart_m * 1000.0) + " mm / " +
+         NumberText(DegreesFromRadians(apart_rad)) + " deg apart (penalty sigma " + NumberText(last.sigma_translation_m) +
+         " m / " + NumberText(last.sigma_rotation_rad) +
          " rad at the end): the pairs' own minima disagree by more than the coupling had enforced, and the result "
          "is the upper level's compromise between them; " + advice;
 }
@@ -99,11 +94,19 @@ std::vector<double> StepScalesForAlternations(const std::vector<OptimisationStag
   return scales;
 }
 
-AlternatingOptions DefaultAlternatingOptions(const CalibrationOptions& options, int max_alternations,
-                                             int stage_alternations) {
+AlternatingOptions AlternatingOptionsFor(const CalibrationOptions& options) {
+  const AlternatingSettings& settings = options.alternating;
   AlternatingOptions alternating;
-  alternating.max_alternations = max_alternations;
-  alternating.stage_alternations = stage_alternations;
+  alternating.max_alternations = settings.max_alternations;
+  alternating.stage_alternations = settings.stage_alternations;
+  alternating.covariance_shrink = settings.covariance_shrink;
+  alternating.penalty_frame = settings.penalty_frame;
+  alternating.stop_translation_m = settings.stop_translation_m;
+  alternating.stop_rotation_rad = settings.stop_rotation_rad;
+  alternating.default_camera_sigma_translation_m = settings.default_camera_sigma_translation_m;
+  alternating.default_camera_sigma_rotation_rad = settings.default_camera_sigma_rotation_rad;
+  alternating.agreement_translation_m = settings.agreement_translation_m;
+  alternating.agreement_rotation_rad = settings.agreement_rotation_rad;
   alternating.lower = options.nelder_mead;
   alternating.lower_solver = options.lower_solver;
   alternating.lower_gradient = options.gradient;
@@ -111,21 +114,21 @@ AlternatingOptions DefaultAlternatingOptions(const CalibrationOptions& options, 
   const int span = StageSpan(alternating);
   alternating.min_alternations = FirstAlternationOfLastStage(options.stages, span) + 1;
   alternating.lower_step_scale = StepScalesForAlternations(options.stages, alternating.max_alternations, span);
-  if (options.lower_solver == LowerSolver::kLbfgs) {
-    // The paper's P^0 goes with its simplex. L-BFGS lower levels find the smooth
-    // cost's own minimum, and there the paper's coupling already holds them back
-    // where the cost is flat (docs/findings.md, "The alternating scheme's penalty holds in the lidar frame").
-    alternating.initial_sigma_translation_m = kLbfgsInitialSigma;
-    alternating.initial_sigma_rotation_rad = kLbfgsInitialSigma;
-  }
+  // The paper's P^0 goes with its simplex. L-BFGS lower levels find the smooth
+  // cost's own minimum, and there the paper's coupling already holds them back
+  // where the cost is flat (docs/findings.md, "The alternating scheme's penalty holds in the lidar frame").
+  const double sigma0 = options.lower_solver == LowerSolver::kLbfgs ? kLbfgsInitialSigma : 5.0;
+  alternating.initial_sigma_translation_m =
+      settings.initial_sigma_translation_m > 0.0 ? settings.initial_sigma_translation_m : sigma0;
+  alternating.initial_sigma_rotation_rad =
+      settings.initial_sigma_rotation_rad > 0.0 ? settings.initial_sigma_rotation_rad : sigma0;
   return alternating;
 }
 
 std::vector<PairObjective> AlternatingSetup::Objectives(const CalibrationOptions& options,
                                                         const AlternatingOptions& alternating) {
   std::vector<PairObjective> objectives;
-  for (const std::unique_ptr<PairCost>& owned : costs) {
-    PairCost* cost = owned.get();
+  for (PairCost* cost : costs) {
     PairObjective objective;
     objective.cost = [cost](const Eigen::Isometry3d& T_camera_lidar) { return cost->Evaluate(T_camera_lidar); };
     objective.cost_with_gradient = [cost](const Eigen::Isometry3d& T_camera_lidar, TransformUpdate update,
@@ -167,7 +170,7 @@ LowerLevelBatchHook AlternatingSetup::BatchHook(const CalibrationOptions& option
         const std::size_t p = static_cast<std::size_t>(task.pair);
         if (p >= costs.size() || problem.pairs[p].lidar != static_cast<int>(l)) continue;
         PreparePairForStage(*costs[p], stage, task.T_camera_lidar_upper);
-        pairs.push_back(costs[p].get());
+        pairs.push_back(costs[p]);
         T_camera_lidar.push_back(task.T_camera_lidar_upper);
       }
       if (pairs.size() > before) lidars.push_back(problem.lidars[l].name);
@@ -245,53 +248,8 @@ std::uint64_t AlternatingSetup::Fingerprint(const CalibrationOptions& options,
   return digest.hash;
 }
 
-CalibrationStatus BuildAlternatingSetup(const CalibrationInput& input, const CalibrationOptions& options,
-                                        AlternatingSetup* setup, std::string* why) {
-  const Rig& rig = input.rig;
-  if (rig.cameras.empty() || rig.lidars.empty()) {
-    *why = "the rig needs at least one camera and one lidar";
-    return CalibrationStatus::kCannotCalibrate;
-  }
-  AlternatingProblem& problem = setup->problem;
-  for (std::size_t c = 0; c < rig.cameras.size(); ++c) {
-    const CameraInfo& camera = rig.cameras[c];
-    problem.cameras.push_back({camera.name, camera.T_base_camera, camera.T_base_camera_sigma});
-    if (camera.name == rig.base_frame) problem.base_camera = static_cast<int>(c);
-  }
-  for (std::size_t l = 0; l < rig.lidars.size(); ++l) {
-    const LidarInfo& lidar = rig.lidars[l];
-    problem.lidars.push_back({lidar.name, lidar.T_base_lidar});
-    int used_pairs = 0;
-    std::vector<std::unique_ptr<PairCost>> unusable;
-    for (std::size_t c = 0; c < rig.cameras.size(); ++c) {
-      const CameraInfo& camera = rig.cameras[c];
-      auto cost = std::make_unique<PairCost>(BuildPairCost(input, camera, lidar.name, options));
-      const Eigen::Isometry3d T_camera_lidar = camera.T_base_camera.inverse() * lidar.T_base_lidar;
-      const int used = cost->RefreshVisibility(T_camera_lidar);
-      if (used == 0) {
-        if (cost->SceneCount() > 0) {
-          setup->warnings.push_back("pair " + camera.name + "/" + lidar.name +
-                                    ": no usable scene at the initial guess; pair left out");
-        }
-        unusable.push_back(std::move(cost));
-        continue;
-      }
-      ++used_pairs;
-      setup->initial_costs.push_back(cost->Evaluate(T_camera_lidar));
-      problem.pairs.push_back({static_cast<int>(c), static_cast<int>(l)});
-      setup->costs.push_back(std::move(cost));
-    }
-    if (used_pairs == 0) {
-      *why = DescribeUnusable(lidar.name, unusable, options.cost.min_points_per_scene);
-      return CalibrationStatus::kCannotCalibrate;
-    }
-  }
-  return CalibrationStatus::kSuccess;
-}
-
 CalibrationOutcome FinishAlternating(AlternatingSetup& setup, const AlternatingResult& solved,
-                                     const CalibrationInput& input, const CalibrationOptions& options,
-                                     const AlternatingOptions& alternating) {
+                                     const CalibrationOptions& options, const AlternatingOptions& alternating) {
   CalibrationOutcome outcome;
   if (!solved.success) {
     outcome.status = CalibrationStatus::kCannotCalibrate;
@@ -336,40 +294,40 @@ CalibrationOutcome FinishAlternating(AlternatingSetup& setup, const AlternatingR
     result.settings["lower_level"] =
         "L-BFGS (analytic gradient of f, central differences of the penalty), at most " +
         std::to_string(alternating.lower_gradient.max_iterations) + " iterations, parameter scales min(" +
-        Number(alternating.lower_gradient.initial_step_translation_m) + " m, " +
-        Number(alternating.lower_gradient.initial_step_rotation_rad) +
+        NumberText(alternating.lower_gradient.initial_step_translation_m) + " m, " +
+        NumberText(alternating.lower_gradient.initial_step_rotation_rad) +
         " rad x the stage's step scale; penalty sigma), function tolerance " +
-        Number(alternating.lower_gradient.function_tolerance);
+        NumberText(alternating.lower_gradient.function_tolerance);
   } else {
     result.settings["lower_level"] = "Nelder-Mead, " + std::to_string(alternating.lower.max_iterations) +
                                      " iterations, initial steps min(" +
-                                     Number(alternating.lower.initial_step_translation_m) + " m, " +
-                                     Number(alternating.lower.initial_step_rotation_rad) +
+                                     NumberText(alternating.lower.initial_step_translation_m) + " m, " +
+                                     NumberText(alternating.lower.initial_step_rotation_rad) +
                                      " rad x the stage's step scale; penalty sigma)";
   }
   result.settings["alternations_max"] = std::to_string(alternating.max_alternations);
-  result.settings["penalty_sigma0"] = Number(alternating.initial_sigma_translation_m) + " m, " +
-                                      Number(alternating.initial_sigma_rotation_rad) + " rad";
-  result.settings["penalty_shrink_w"] = Number(alternating.covariance_shrink);
+  result.settings["penalty_sigma0"] = NumberText(alternating.initial_sigma_translation_m) + " m, " +
+                                      NumberText(alternating.initial_sigma_rotation_rad) + " rad";
+  result.settings["penalty_shrink_w"] = NumberText(alternating.covariance_shrink);
   result.settings["penalty_frame"] =
       alternating.penalty_frame == PenaltyFrame::kLidar
           ? "lidar (sigmas of the lidar's position and of its turn about its own origin, carried into the "
             "camera-frame difference by the adjoint)"
           : "camera (sigmas on the camera-frame difference Log(T^ * T^-1))";
   result.settings["difference"] = "SE(3) logarithm of A * B^-1, [rho; phi]";
-  result.settings["default_camera_sigma"] = Number(alternating.default_camera_sigma_translation_m) + " m, " +
-                                            Number(alternating.default_camera_sigma_rotation_rad) +
+  result.settings["default_camera_sigma"] = NumberText(alternating.default_camera_sigma_translation_m) + " m, " +
+                                            NumberText(alternating.default_camera_sigma_rotation_rad) +
                                             " rad (cameras without T_base_camera_sigma)";
   std::string stages;
   for (const OptimisationStage& s : options.stages) {
-    stages += (stages.empty() ? "" : "; ") + std::string("step x") + Number(s.step_scale) + " blur " + Number(s.blur_fraction);
+    stages += (stages.empty() ? "" : "; ") + std::string("step x") + NumberText(s.step_scale) + " blur " + NumberText(s.blur_fraction);
   }
   const int span = StageSpan(alternating);
   result.settings["stages"] =
       stages + (span < alternating.max_alternations
                     ? " (spread over the first " + std::to_string(span) + " alternations; the rest in the last stage)"
                     : std::string(" (spread over the alternations)"));
-  result.settings["time_budget_s"] = Number(alternating.time_budget_s);
+  result.settings["time_budget_s"] = NumberText(alternating.time_budget_s);
   result.termination = "alt " + std::string(MetricKindName(options.cost.metric)) + ": " + solved.termination + ", " +
                        DescribeEvaluations(alternating.lower_solver, solved.total_evaluations,
                                            solved.total_gradient_evaluations);
@@ -379,41 +337,6 @@ CalibrationOutcome FinishAlternating(AlternatingSetup& setup, const AlternatingR
                                                    solved.termination.starts_with("time budget"));
     if (!warning.empty()) result.warnings.push_back(warning);
   }
-  (void)input;
-  return outcome;
-}
-
-CalibrationOutcome CalibrateAlternating(const CalibrationInput& input, const CalibrationOptions& options,
-                                        const AlternatingOptions& alternating, const ProgressCallback& progress,
-                                        AlternatingResult* details, AlternatingProblem* problem) {
-  using Clock = std::chrono::steady_clock;
-  const Clock::time_point start = Clock::now();
-  CalibrationOutcome failed;
-  std::string why;
-  if (!options.IsValid(&why) || !alternating.IsValid(&why)) {
-    failed.status = CalibrationStatus::kInvalidOptions;
-    failed.why = "invalid options: " + why;
-    return failed;
-  }
-  AlternatingSetup setup;
-  const CalibrationStatus status = BuildAlternatingSetup(input, options, &setup, &why);
-  if (status != CalibrationStatus::kSuccess) {
-    failed.status = status;
-    failed.why = why;
-    return failed;
-  }
-  const double build_s = std::chrono::duration<double>(Clock::now() - start).count();
-  if (progress) progress("built " + std::to_string(setup.costs.size()) + " pair cost(s) in " + Number(build_s) + " s");
-  ThreadLowerLevelBackend backend(setup.Objectives(options, alternating), setup.BatchHook(options, alternating, progress));
-  const AlternatingResult solved = SolveAlternating(setup.problem, alternating, backend, [&](const AlternationRecord& record) {
-    if (progress) progress(DescribeAlternation(record, setup.problem));
-  });
-  CalibrationOutcome outcome = FinishAlternating(setup, solved, input, options, alternating);
-  outcome.result.timings_s["build_swathes"] = build_s;
-  outcome.result.timings_s["optimise"] = solved.history.empty() ? 0.0 : solved.history.back().elapsed_s;
-  outcome.result.timings_s["total"] = std::chrono::duration<double>(Clock::now() - start).count();
-  if (details) *details = solved;
-  if (problem) *problem = setup.problem;
   return outcome;
 }
 

@@ -1,9 +1,8 @@
-// The `alt` scheme of Calibrate: the paper's alternating optimisation
-// (core/alternating.hpp) over the pair costs of core/pair_cost.hpp.
-//
-// Split in three steps so that the MPI front end can run the middle one on
-// several ranks: every rank builds the same setup, rank 0 solves with an MPI
-// backend while the others serve their pairs, and rank 0 finishes.
+// The `alt` scheme's pieces over the pair costs of core/pair_cost.hpp: the
+// problem, the lower levels' objectives and batch hook, the stage schedule
+// over the alternations and the outcome. Calibrator (core/calibrator.hpp)
+// runs them; with MPI every rank builds the same Calibrator, rank 0 solves on
+// an MPI backend while the others serve their pairs.
 #pragma once
 
 #include <cstdint>
@@ -16,11 +15,13 @@
 
 namespace scenecal {
 
+// The alt problem over the pair costs that have usable scenes at the initial
+// guess (the costs belong to the Calibrator, core/calibrator.hpp).
 struct AlternatingSetup {
   AlternatingProblem problem;
-  std::vector<std::unique_ptr<PairCost>> costs;  // one per problem.pairs entry
-  std::vector<double> initial_costs;             // f_p at the initial guess, per pair
-  std::vector<std::string> warnings;             // pairs left out, and why
+  std::vector<PairCost*> costs;       // one per problem.pairs entry
+  std::vector<double> initial_costs;  // f_p at the initial guess, per pair
+  std::vector<std::string> warnings;  // pairs left out, and why
 
   // The objectives for the lower level: cost = PairCost::Evaluate; prepare =
   // the coarse-to-fine stage of the alternation (image blur) and a visibility
@@ -67,33 +68,19 @@ std::string LevelsApartWarning(const AlternatingOptions& alternating, const Alte
 // 0.16-0.25 deg (docs/findings.md, "The alternating scheme's penalty holds in the lidar frame").
 inline constexpr double kLbfgsInitialSigma = 500.0;
 
-// The paper's settings (20 alternations, P^0 from 5 m and 5 rad, w = 0.5,
-// 200 simplex iterations) with the lower level's steps, the time budget and
-// the coarse-to-fine stages taken from the calibration options; with
-// options.lower_solver = lbfgs, P^0 from kLbfgsInitialSigma instead.
-// The fields derived from the schedule (min_alternations, lower_step_scale)
-// follow max_alternations and stage_alternations: pass them here rather than
-// setting them after.
-// stage_alternations: spread the stages over the first this many (0 = all).
-AlternatingOptions DefaultAlternatingOptions(const CalibrationOptions& options, int max_alternations = 20,
-                                             int stage_alternations = 0);
-
-// Builds every (camera, lidar) pair cost with usable scenes at the initial guess.
-// Returns kSuccess, or another status with *why (e.g. a lidar with no usable scene).
-CalibrationStatus BuildAlternatingSetup(const CalibrationInput& input, const CalibrationOptions& options,
-                                        AlternatingSetup* setup, std::string* why);
+// The alternating options of a calibration: options.alternating (the paper's
+// settings by default: 20 alternations, P^0 from 5 m and 5 rad, w = 0.5) with
+// the lower level's solver, steps, iterations and time budget and the
+// coarse-to-fine stages taken from the rest of the options (the fields derived
+// from the schedule: min_alternations, lower_step_scale); P^0 from
+// kLbfgsInitialSigma with options.lower_solver = lbfgs unless given.
+AlternatingOptions AlternatingOptionsFor(const CalibrationOptions& options);
 
 // Turns the alternating result into the calibration outcome: T_base_lidar per
 // lidar, each pair's upper-level T_camera_lidar with its final cost (sharp
 // images, visibility refreshed there), settings and the termination.
 CalibrationOutcome FinishAlternating(AlternatingSetup& setup, const AlternatingResult& solved,
-                                     const CalibrationInput& input, const CalibrationOptions& options,
-                                     const AlternatingOptions& alternating);
-
-// All three steps on this process, the lower level on threads.
-CalibrationOutcome CalibrateAlternating(const CalibrationInput& input, const CalibrationOptions& options,
-                                        const AlternatingOptions& alternating, const ProgressCallback& progress,
-                                        AlternatingResult* details = nullptr, AlternatingProblem* problem = nullptr);
+                                     const CalibrationOptions& options, const AlternatingOptions& alternating);
 
 // Progress line for one alternation (for logs).
 std::string DescribeAlternation(const AlternationRecord& record, const AlternatingProblem& problem);

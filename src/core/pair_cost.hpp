@@ -53,7 +53,7 @@ struct MotionCorrectionOptions {
   // per-frame terms; with `scale` as well, each frame then refines it.
   bool drive_scale = false;
   double max_scale = 0.02;                         // |scale| bound (fraction)
-  double max_rate_rad_per_m = 8.7266e-4;           // bound on each rate (0.05 deg/m)
+  double max_rate_rad_per_m = RadiansFromDegrees(0.05);  // bound on each rate
   double initial_step_scale = 0.004;               // simplex steps
   double initial_step_rate_rad_per_m = 1.7453e-4;  // 0.01 deg/m
   int max_iterations = 60;
@@ -111,6 +111,9 @@ class PairCost {
   // Blurs every scene's image with a Gaussian of 1-sigma = fraction * image
   // width (pixels); 0 restores the sharp images. Between optimiser runs only.
   void SetImageBlur(double fraction_of_width);
+  // The histogram's binning from now on (the uncertainty scores the swathes
+  // with B-spline binning, whose cost is smooth).
+  void SetBinning(Binning binning) { options_.histogram.binning = binning; }
 
   // Sum of the lidar-frame coordinates (metres) of the visible points that
   // project under T_camera_lidar, over the used scenes; *count gets their number.

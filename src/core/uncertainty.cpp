@@ -217,32 +217,6 @@ LidarUncertainty EstimateLidarUncertainty(const std::vector<const PairCost*>& pa
   return result;
 }
 
-std::vector<LidarUncertainty> EstimateCalibrationUncertainty(const CalibrationInput& input,
-                                                             const CalibrationOptions& options,
-                                                             const CalibrationResult& result,
-                                                             const UncertaintyOptions& uncertainty_options) {
-  CalibrationOptions smooth = options;
-  smooth.cost.histogram.binning = Binning::kBSpline;
-  std::vector<LidarUncertainty> estimates;
-  for (const LidarCalibration& lidar : result.lidars) {
-    // One lidar at a time: its swathes are released before the next is built.
-    std::vector<std::unique_ptr<PairCost>> pairs;
-    std::vector<const PairCost*> views;
-    std::vector<PairCost*> mutable_views;
-    for (const CameraInfo& camera : input.rig.cameras) {
-      auto pair = std::make_unique<PairCost>(BuildPairCost(input, camera, lidar.lidar, smooth));
-      if (pair->SceneCount() == 0) continue;
-      pair->RefreshVisibility(camera.T_base_camera.inverse() * lidar.T_base_lidar);
-      views.push_back(pair.get());
-      mutable_views.push_back(pair.get());
-      pairs.push_back(std::move(pair));
-    }
-    CorrectMotionAtAnswer(smooth, mutable_views, lidar.T_base_lidar);
-    estimates.push_back(EstimateLidarUncertainty(views, lidar.T_base_lidar, uncertainty_options));
-  }
-  return estimates;
-}
-
 std::string DescribeLocalUpdate(const Vector6d& d) {
   const double deg = 180.0 / M_PI;
   return fmt::format("dx {:+.2f} dy {:+.2f} dz {:+.2f} cm, rx {:+.3f} ry {:+.3f} rz {:+.3f} deg", 100.0 * d[0],

@@ -76,14 +76,6 @@ struct LidarUncertainty {
 LidarUncertainty EstimateLidarUncertainty(const std::vector<const PairCost*>& pairs,
                                           const Eigen::Isometry3d& T_base_lidar, const UncertaintyOptions& options);
 
-// For every lidar of a calibration result: its pairs' costs rebuilt from the
-// input as the calibration built them but with B-spline binning (sharp images,
-// visibility at the result), and the estimate at the result's T_base_lidar.
-// In the result's lidar order.
-std::vector<LidarUncertainty> EstimateCalibrationUncertainty(const CalibrationInput& input,
-                                                             const CalibrationOptions& options,
-                                                             const CalibrationResult& result,
-                                                             const UncertaintyOptions& uncertainty_options);
 
 // The displacement of d by `units` along a unit direction, in words:
 // "dx +0.12 dy -0.30 dz +1.10 cm, rx +0.410 ry -0.020 rz +0.003 deg"

@@ -1,0 +1,466 @@
+#include "core/calibrator.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+#include "core/interrupt.hpp"
+#include "core/number_text.hpp"
+
+namespace scenecal {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double SecondsSince(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
+
+std::string VectorText(const Eigen::Vector3d& v) {
+  return "[" + NumberText(v.x()) + ", " + NumberText(v.y()) + ", " + NumberText(v.z()) + "]";
+}
+
+std::string StagesBrief(const std::vector<NelderMeadSummary>& stages) {
+  int evaluations = 0, iterations = 0;
+  for (const auto& s : stages) {
+    evaluations += s.evaluations;
+    iterations += s.iterations;
+  }
+  std::ostringstream out;
+  out << stages.size() << " runs, " << iterations << " iterations, " << evaluations << " evaluations";
+  if (!stages.empty()) out << ", last: " << NelderMeadTerminationName(stages.back().termination);
+  return out.str();
+}
+
+std::string GradientRunsBrief(const std::vector<GradientSolverSummary>& runs) {
+  int evaluations = 0, gradient_evaluations = 0, iterations = 0;
+  for (const auto& r : runs) {
+    evaluations += r.evaluations;
+    gradient_evaluations += r.gradient_evaluations;
+    iterations += r.iterations;
+  }
+  std::ostringstream out;
+  out << runs.size() << " lbfgs runs, " << iterations << " iterations, "
+      << DescribeEvaluations(LowerSolver::kLbfgs, evaluations, gradient_evaluations);
+  if (!runs.empty()) out << ", last: " << (runs.back().converged ? "converged" : "not converged");
+  return out.str();
+}
+
+// The settings of the once and joint schemes beyond the common ones.
+void RecordOnceOrJointSettings(const CalibrationOptions& options, CalibrationResult* result) {
+  RecordCommonSettings(options, result);
+  std::map<std::string, std::string>& settings = result->settings;
+  settings["rotation_pivot"] = options.pivot_at_observed_centroid ? "observed centroid" : "lidar origin";
+  const bool lbfgs = options.lower_solver == LowerSolver::kLbfgs;
+  settings["max_iterations_per_run"] =
+      std::to_string(lbfgs ? options.gradient.max_iterations : options.nelder_mead.max_iterations);
+  std::string stages;
+  for (const OptimisationStage& s : options.stages) {
+    stages += (stages.empty() ? "" : "; ") + std::string("step x") + NumberText(s.step_scale) + " blur " +
+              NumberText(s.blur_fraction) + " restarts " + std::to_string(s.restarts);
+  }
+  settings["stages"] = stages;
+  // Simplex: the initial simplex edges; lbfgs: the parameter scales (first stage).
+  settings["initial_step_m"] = NumberText(lbfgs ? options.gradient.initial_step_translation_m
+                                                : options.nelder_mead.initial_step_translation_m);
+  settings["initial_step_rad"] = NumberText(lbfgs ? options.gradient.initial_step_rotation_rad
+                                                  : options.nelder_mead.initial_step_rotation_rad);
+  settings["time_budget_s"] = NumberText(options.time_budget_s);
+}
+
+// once: the largest pairwise difference of the pairs' implied T_base_lidar,
+// recorded, and a warning beyond the agreement thresholds.
+void RecordOnceAgreement(const CalibrationOptions& options, const std::string& lidar,
+                         const std::vector<Eigen::Isometry3d>& implied_base_lidar, CalibrationResult* result,
+                         const std::function<void(const std::string&)>& say) {
+  double spread_m = 0.0, spread_deg = 0.0;
+  for (std::size_t a = 0; a < implied_base_lidar.size(); ++a) {
+    for (std::size_t b = a + 1; b < implied_base_lidar.size(); ++b) {
+      spread_m = std::max(spread_m, TranslationError(implied_base_lidar[a], implied_base_lidar[b]));
+      spread_deg = std::max(spread_deg, RotationErrorDegrees(implied_base_lidar[a], implied_base_lidar[b]));
+    }
+  }
+  result->settings["once_agreement_" + lidar + "_translation_m"] = NumberText(spread_m);
+  result->settings["once_agreement_" + lidar + "_rotation_deg"] = NumberText(spread_deg);
+  say("once " + lidar + ": pairs' T_base_lidar agree within " + NumberText(spread_m) + " m, " +
+      NumberText(spread_deg) + " deg");
+  if (spread_m > options.agreement_warning_translation_m || spread_deg > options.agreement_warning_rotation_deg) {
+    result->warnings.push_back("lidar " + lidar + ": the pairs' T_base_lidar disagree by " + NumberText(spread_m) +
+                               " m and " + NumberText(spread_deg) + " deg; T_base_lidar is their mean");
+  }
+}
+
+}  // namespace
+
+Calibrator::Calibrator(const CalibrationInput& input, const CalibrationOptions& options, ProgressCallback progress)
+    : input_(input), options_(options), progress_(std::move(progress)) {
+  std::string why;
+  if (!options_.IsValid(&why)) {
+    Cannot(CalibrationStatus::kInvalidOptions, "invalid options: " + why);
+    return;
+  }
+  alternating_options_ = AlternatingOptionsFor(options_);
+  if (options_.scheme == CalibrationScheme::kAlt && !alternating_options_.IsValid(&why)) {
+    Cannot(CalibrationStatus::kInvalidOptions, "invalid options: " + why);
+    return;
+  }
+  if (input_.rig.cameras.empty() || input_.rig.lidars.empty()) {
+    Cannot(CalibrationStatus::kCannotCalibrate, "the rig needs at least one camera and one lidar");
+    return;
+  }
+  if (options_.threads > 0) {
+    thread_limit_.emplace(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(options_.threads));
+  }
+  const auto start = Clock::now();
+  BuildPairs();
+  if (status_ != CalibrationStatus::kSuccess) return;
+  BuildAlternatingSetup();
+  build_s_ = SecondsSince(start);
+}
+
+Calibrator::~Calibrator() = default;
+
+CalibrationStatus Calibrator::Cannot(CalibrationStatus status, std::string why) {
+  status_ = status;
+  why_ = std::move(why);
+  return status_;
+}
+
+void Calibrator::Say(const std::string& message) const {
+  if (progress_) progress_(message);
+}
+
+void Calibrator::BuildPairs() {
+  for (const LidarInfo& lidar : input_.rig.lidars) {
+    LidarPairs built;
+    built.lidar = &lidar;
+    int scenes = 0;
+    for (const CameraInfo& camera : input_.rig.cameras) {
+      built.pairs.push_back(std::make_unique<PairCost>(BuildPairCost(input_, camera, lidar.name, options_)));
+      scenes += built.pairs.back()->SceneCount();
+    }
+    if (scenes == 0) {
+      Cannot(CalibrationStatus::kCannotCalibrate,
+             "lidar " + lidar.name +
+                 ": no scene: no camera frame has scans of this lidar within its swathe window, or the images, "
+                 "scans and trajectory do not overlap in time");
+      return;
+    }
+    int used = 0;
+    for (auto& pair : built.pairs) {
+      used += pair->RefreshVisibility(pair->Camera().T_base_camera.inverse() * lidar.T_base_lidar);
+    }
+    if (used == 0) {
+      Cannot(CalibrationStatus::kCannotCalibrate,
+             DescribeUnusable(lidar.name, built.pairs, options_.cost.min_points_per_scene));
+      return;
+    }
+    // Initial costs (visibility at the initial guess).
+    for (const auto& pair : built.pairs) {
+      built.initial_costs.push_back(pair->Evaluate(pair->Camera().T_base_camera.inverse() * lidar.T_base_lidar));
+    }
+    lidars_.push_back(std::move(built));
+  }
+}
+
+void Calibrator::BuildAlternatingSetup() {
+  AlternatingProblem& problem = alternating_.problem;
+  const Rig& rig = input_.rig;
+  for (std::size_t c = 0; c < rig.cameras.size(); ++c) {
+    const CameraInfo& camera = rig.cameras[c];
+    problem.cameras.push_back({camera.name, camera.T_base_camera, camera.T_base_camera_sigma});
+    if (camera.name == rig.base_frame) problem.base_camera = static_cast<int>(c);
+  }
+  for (std::size_t l = 0; l < lidars_.size(); ++l) {
+    const LidarPairs& built = lidars_[l];
+    problem.lidars.push_back({built.lidar->name, built.lidar->T_base_lidar});
+    for (std::size_t c = 0; c < built.pairs.size(); ++c) {
+      PairCost& cost = *built.pairs[c];
+      if (cost.UsedSceneCount() == 0) {
+        if (cost.SceneCount() > 0) {
+          alternating_.warnings.push_back("pair " + cost.Camera().name + "/" + built.lidar->name +
+                                          ": no usable scene at the initial guess; pair left out");
+        }
+        continue;
+      }
+      alternating_.initial_costs.push_back(built.initial_costs[c]);
+      problem.pairs.push_back({static_cast<int>(c), static_cast<int>(l)});
+      alternating_.costs.push_back(&cost);
+    }
+  }
+}
+
+std::vector<PairObjective> Calibrator::AlternatingObjectives() {
+  return alternating_.Objectives(options_, alternating_options_);
+}
+
+LowerLevelBatchHook Calibrator::AlternatingBatchHook(const ProgressCallback& progress) {
+  return alternating_.BatchHook(options_, alternating_options_, progress);
+}
+
+std::uint64_t Calibrator::AlternatingFingerprint() const {
+  return alternating_.Fingerprint(options_, alternating_options_);
+}
+
+CalibrationOutcome Calibrator::Solve(const LowerLevelBackendFactory& lower_levels) {
+  if (status_ != CalibrationStatus::kSuccess) {
+    CalibrationOutcome failed;
+    failed.status = status_;
+    failed.why = why_;
+    return failed;
+  }
+  if (options_.scheme == CalibrationScheme::kAlt) return SolveAlternating(lower_levels);
+  return SolveOnceOrJoint();
+}
+
+CalibrationOutcome Calibrator::SolveAlternating(const LowerLevelBackendFactory& lower_levels) {
+  const auto start = Clock::now();
+  Say("built " + std::to_string(alternating_.costs.size()) + " pair cost(s) in " + NumberText(build_s_) + " s");
+  std::vector<PairObjective> objectives = AlternatingObjectives();
+  LowerLevelBatchHook hook = AlternatingBatchHook(progress_);
+  std::unique_ptr<LowerLevelBackend> backend =
+      lower_levels ? lower_levels(std::move(objectives), std::move(hook))
+                   : std::make_unique<ThreadLowerLevelBackend>(std::move(objectives), std::move(hook));
+  const AlternatingResult solved =
+      scenecal::SolveAlternating(alternating_.problem, alternating_options_, *backend,
+                                 [&](const AlternationRecord& record) {
+                                   Say(DescribeAlternation(record, alternating_.problem));
+                                 });
+  CalibrationOutcome outcome = FinishAlternating(alternating_, solved, options_, alternating_options_);
+  outcome.result.timings_s["build_swathes"] = build_s_;
+  outcome.result.timings_s["optimise"] = solved.history.empty() ? 0.0 : solved.history.back().elapsed_s;
+  outcome.result.timings_s["total"] = build_s_ + SecondsSince(start);
+  outcome.alternating = AlternatingHistory{alternating_.problem, solved};
+  return outcome;
+}
+
+CalibrationOutcome Calibrator::SolveOnceOrJoint() {
+  const auto start = Clock::now();
+  CalibrationOutcome outcome;
+  const Clock::time_point deadline =
+      start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(options_.time_budget_s));
+  const StopRequested stop_requested = [&] { return options_.time_budget_s > 0.0 && Clock::now() > deadline; };
+  const CalibrationOptions& options = options_;
+  const auto say = [&](const std::string& message) { Say(message); };
+
+  CalibrationResult& result = outcome.result;
+  RecordOnceOrJointSettings(options, &result);
+  result.timings_s["build_swathes"] = build_s_;
+  say("built " + std::to_string(lidars_.size()) + " lidar problem(s) in " + NumberText(build_s_) + " s");
+
+  std::vector<std::string> terminations;
+  for (LidarPairs& problem : lidars_) {
+    const LidarInfo& lidar = *problem.lidar;
+    const std::vector<double>& initial_costs = problem.initial_costs;
+    std::vector<Eigen::Isometry3d> T_camera_lidar(problem.pairs.size());
+    std::vector<bool> solved(problem.pairs.size(), false);
+    // One optimisation problem: log its start, run the coarse-to-fine schedule
+    // on *transform with the chosen lower solver, log and record its runs.
+    // cost_with_gradient is used by lbfgs only; nelder_mead carries the
+    // parameterisation (update kind, pivot) of both solvers.
+    const auto optimise = [&](const std::string& name, double initial_cost, const NelderMeadOptions& nelder_mead,
+                              const std::function<double(const Eigen::Isometry3d&)>& cost,
+                              const CostWithGradient& cost_with_gradient,
+                              const std::function<void(const OptimisationStage&, const Eigen::Isometry3d&)>& prepare,
+                              Eigen::Isometry3d* transform) {
+      const auto problem_start = Clock::now();
+      OptimisationReport report;
+      report.problem = name;
+      say(report.problem + ": start (" + LowerSolverName(options.lower_solver) + "), cost " +
+          NumberText(initial_cost) + ", rotation pivot (lidar frame, m) " + VectorText(nelder_mead.pivot_source));
+      MinimiseWithLowerSolver(options, options.stages, nelder_mead, cost, cost_with_gradient, prepare, transform,
+                              &report, stop_requested);
+      std::string brief;
+      double final_value = std::numeric_limits<double>::quiet_NaN();
+      if (options.lower_solver == LowerSolver::kLbfgs) {
+        if (!report.gradient_runs.empty()) final_value = report.gradient_runs.back().final_value;
+        brief = GradientRunsBrief(report.gradient_runs);
+      } else {
+        if (!report.stages.empty()) final_value = report.stages.back().final_value;
+        brief = StagesBrief(report.stages);
+      }
+      report.seconds = SecondsSince(problem_start);
+      say(report.problem + ": " + brief + ", cost " +
+          (std::isnan(final_value) ? std::string("-") : NumberText(final_value)) + ", " +
+          NumberText(report.seconds) + " s");
+      terminations.push_back(report.problem + ": " + brief);
+      outcome.optimisations.push_back(report);
+    };
+    // Drift correction of the swathes before a stage (options.motion_correction):
+    // the pairs given share each frame's correction.
+    const auto correct_motion = [&](const std::vector<PairCost*>& pairs, const OptimisationStage& stage,
+                                    const std::vector<Eigen::Isometry3d>& T_camera_lidar_now) {
+      if (!options.motion_correction) return;
+      // prepare is called with the elements of options.stages (MinimiseWithLowerSolver below).
+      const auto in_schedule = std::find_if(options.stages.begin(), options.stages.end(),
+                                            [&](const OptimisationStage& s) { return &s == &stage; });
+      if (in_schedule - options.stages.begin() < options.motion_correction_first_stage) return;
+      const MotionCorrectionSummary summary = EstimateMotionCorrections(pairs, T_camera_lidar_now, options.motion);
+      // The visibility follows the re-posed scans.
+      for (std::size_t p = 0; p < pairs.size(); ++p) pairs[p]->RefreshVisibility(T_camera_lidar_now[p]);
+      std::string names;
+      for (const PairCost* pair : pairs) names += (names.empty() ? "" : ", ") + pair->Camera().name + "/" + lidar.name;
+      say("motion correction (" + names + "): " + DescribeMotionCorrection(summary));
+    };
+    if (options.scheme == CalibrationScheme::kJoint) {
+      std::vector<const PairCost*> pairs;
+      for (const auto& pair : problem.pairs) pairs.push_back(pair.get());
+      Eigen::Isometry3d T_base_lidar = lidar.T_base_lidar;
+      NelderMeadOptions nelder_mead = options.nelder_mead;
+      if (options.pivot_at_observed_centroid) {
+        nelder_mead.pivot_source = ObservedCentroid(pairs, T_base_lidar).value_or(nelder_mead.pivot_source);
+      }
+      optimise(
+          "joint " + lidar.name, EvaluateJoint(pairs, T_base_lidar), nelder_mead,
+          [&](const Eigen::Isometry3d& T) { return EvaluateJoint(pairs, T); },
+          [&](const Eigen::Isometry3d& T, Vector6d* gradient) {
+            return EvaluateJointWithGradient(pairs, T, nelder_mead.transform_update, nelder_mead.pivot_source,
+                                             gradient);
+          },
+          [&](const OptimisationStage& stage, const Eigen::Isometry3d& T) {
+            std::vector<PairCost*> stage_pairs;
+            std::vector<Eigen::Isometry3d> stage_T_camera_lidar;
+            for (auto& pair : problem.pairs) {
+              stage_pairs.push_back(pair.get());
+              stage_T_camera_lidar.push_back(pair->Camera().T_base_camera.inverse() * T);
+              PreparePairForStage(*pair, stage, stage_T_camera_lidar.back());
+            }
+            correct_motion(stage_pairs, stage, stage_T_camera_lidar);
+          },
+          &T_base_lidar);
+      for (std::size_t p = 0; p < problem.pairs.size(); ++p) {
+        T_camera_lidar[p] = problem.pairs[p]->Camera().T_base_camera.inverse() * T_base_lidar;
+        solved[p] = true;
+      }
+    } else {
+      for (std::size_t p = 0; p < problem.pairs.size(); ++p) {
+        PairCost& pair = *problem.pairs[p];
+        T_camera_lidar[p] = pair.Camera().T_base_camera.inverse() * lidar.T_base_lidar;
+        if (pair.UsedSceneCount() == 0) {
+          result.warnings.push_back("pair " + pair.Camera().name + "/" + lidar.name +
+                                    ": no usable scene at the initial guess; pair left out");
+          continue;
+        }
+        NelderMeadOptions nelder_mead = options.nelder_mead;
+        if (options.pivot_at_observed_centroid) {
+          nelder_mead.pivot_source = ObservedCentroid({&pair}, lidar.T_base_lidar).value_or(nelder_mead.pivot_source);
+        }
+        optimise(
+            "once " + pair.Camera().name + "/" + lidar.name, initial_costs[p], nelder_mead,
+            [&](const Eigen::Isometry3d& T) { return pair.Evaluate(T); },
+            [&](const Eigen::Isometry3d& T, Vector6d* gradient) {
+              if (gradient == nullptr) return pair.Evaluate(T);
+              return pair.EvaluateWithGradient(T, nelder_mead.transform_update, nelder_mead.pivot_source, gradient);
+            },
+            [&](const OptimisationStage& stage, const Eigen::Isometry3d& T) {
+              PreparePairForStage(pair, stage, T);
+              correct_motion({&pair}, stage, {T});
+            },
+            &T_camera_lidar[p]);
+        solved[p] = true;
+      }
+    }
+
+    // Final costs with visibility refreshed at the answer; per-pair results.
+    std::vector<Eigen::Isometry3d> implied_base_lidar;
+    for (std::size_t p = 0; p < problem.pairs.size(); ++p) {
+      PairCost& pair = *problem.pairs[p];
+      const Eigen::Isometry3d T_initial = pair.Camera().T_base_camera.inverse() * lidar.T_base_lidar;
+      if (!solved[p]) {
+        outcome.pairs.push_back(MakePairReport(pair, T_initial, initial_costs[p]));
+        continue;
+      }
+      pair.SetImageBlur(0.0);
+      pair.RefreshVisibility(T_camera_lidar[p]);
+      if (options.motion_correction) AppendFrameMotionCorrections(pair, lidar.name, &outcome.motion_corrections);
+      PairReport report = MakePairReport(pair, T_initial, initial_costs[p]);
+      report.final_cost = pair.Evaluate(T_camera_lidar[p]);
+      outcome.pairs.push_back(report);
+      result.pairs.push_back({pair.Camera().name, lidar.name, T_camera_lidar[p], report.final_cost});
+      implied_base_lidar.push_back(pair.Camera().T_base_camera * T_camera_lidar[p]);
+    }
+    if (implied_base_lidar.empty()) {
+      outcome.status = CalibrationStatus::kCannotCalibrate;
+      outcome.why = DescribeUnusable(lidar.name, problem.pairs, options.cost.min_points_per_scene);
+      return outcome;
+    }
+    LidarCalibration lidar_result;
+    lidar_result.lidar = lidar.name;
+    lidar_result.T_base_lidar = MeanTransform(implied_base_lidar);
+    result.lidars.push_back(lidar_result);
+    if (options.scheme == CalibrationScheme::kOnce && implied_base_lidar.size() > 1) {
+      RecordOnceAgreement(options, lidar.name, implied_base_lidar, &result, say);
+    }
+  }
+  result.timings_s["optimise"] = SecondsSince(start);
+  result.timings_s["total"] = build_s_ + SecondsSince(start);
+  std::string termination = CalibrationSchemeName(options.scheme) + std::string(" ") +
+                            MetricKindName(options.cost.metric) + ": ";
+  for (std::size_t i = 0; i < terminations.size(); ++i) termination += (i ? "; " : "") + terminations[i];
+  if (stop_requested()) termination += " (time budget reached)";
+  result.termination = termination;
+  return outcome;
+}
+
+Calibrator::LidarPairs* Calibrator::FindLidar(const std::string& lidar) {
+  for (LidarPairs& built : lidars_) {
+    if (built.lidar->name == lidar) return &built;
+  }
+  return nullptr;
+}
+
+std::vector<PairCost*> Calibrator::PairsAt(const std::string& lidar, const Eigen::Isometry3d& T_base_lidar,
+                                           Binning binning) {
+  std::vector<PairCost*> pairs;
+  LidarPairs* built = FindLidar(lidar);
+  if (built == nullptr) return pairs;
+  for (auto& pair : built->pairs) {
+    if (pair->SceneCount() == 0) continue;
+    pair->SetBinning(binning);
+    pair->SetImageBlur(0.0);
+    pair->RefreshVisibility(pair->Camera().T_base_camera.inverse() * T_base_lidar);
+    pairs.push_back(pair.get());
+  }
+  CorrectMotionAtAnswer(options_, pairs, T_base_lidar);
+  return pairs;
+}
+
+PairCost* Calibrator::PairAt(const std::string& camera, const std::string& lidar,
+                             const Eigen::Isometry3d& T_base_lidar) {
+  for (PairCost* pair : PairsAt(lidar, T_base_lidar, options_.cost.histogram.binning)) {
+    if (pair->Camera().name == camera) return pair;
+  }
+  return nullptr;
+}
+
+std::vector<LidarUncertainty> Calibrator::EstimateUncertainty(const CalibrationResult& result,
+                                                              const UncertaintyOptions& uncertainty_options) {
+  std::vector<LidarUncertainty> estimates;
+  for (const LidarCalibration& lidar : result.lidars) {
+    // On the smooth cost of the same swathes: the hard one is piecewise constant.
+    const std::vector<PairCost*> pairs = PairsAt(lidar.lidar, lidar.T_base_lidar, Binning::kBSpline);
+    const std::vector<const PairCost*> views(pairs.begin(), pairs.end());
+    estimates.push_back(EstimateLidarUncertainty(views, lidar.T_base_lidar, uncertainty_options));
+    for (PairCost* pair : pairs) pair->SetBinning(options_.cost.histogram.binning);
+  }
+  return estimates;
+}
+
+std::vector<LidarBasinCheck> Calibrator::CheckBasins(const CalibrationResult& result,
+                                                     const BasinCheckOptions& check_options) {
+  std::vector<LidarBasinCheck> checks;
+  for (const LidarCalibration& answer : result.lidars) {
+    const std::vector<PairCost*> pairs = PairsAt(answer.lidar, answer.T_base_lidar, options_.cost.histogram.binning);
+    checks.push_back(CheckLidarBasin(pairs, answer, options_, check_options, progress_));
+  }
+  return checks;
+}
+
+CalibrationOutcome Calibrate(const CalibrationInput& input, const CalibrationOptions& options,
+                             const ProgressCallback& progress) {
+  Calibrator calibrator(input, options, progress);
+  return calibrator.Solve();
+}
+
+}  // namespace scenecal

@@ -1,0 +1,104 @@
+// The calibration pipeline: one object built once from the calibration input
+// and the options, owning every (camera, lidar) pair cost. It solves the
+// scheme of the options (once, joint or the paper's alt, whose lower levels run
+// on an injected backend: threads by default, MPI ranks from src/distributed),
+// and the steps after the solve (uncertainty, basin check, report) reuse the
+// costs it built instead of building them again.
+//
+// Core rules: no files, no printing; progress goes to the callback, and data
+// that cannot be calibrated is a status with the reason.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <tbb/global_control.h>
+
+#include "core/basin_check.hpp"
+#include "core/calibrate.hpp"
+#include "core/calibrate_alternating.hpp"
+#include "core/uncertainty.hpp"
+
+namespace scenecal {
+
+// Makes the backend that runs alt's lower levels from the pairs' objectives and
+// the batch hook (ThreadLowerLevelBackend when none is given).
+using LowerLevelBackendFactory = std::function<std::unique_ptr<LowerLevelBackend>(
+    std::vector<PairObjective> objectives, LowerLevelBatchHook before_batch)>;
+
+class Calibrator {
+ public:
+  // Validates the options and builds every pair's cost at the rig's initial
+  // guess (the input must outlive the calibrator). Status() says whether the
+  // data can be calibrated.
+  Calibrator(const CalibrationInput& input, const CalibrationOptions& options, ProgressCallback progress = {});
+  ~Calibrator();
+  Calibrator(const Calibrator&) = delete;
+  Calibrator& operator=(const Calibrator&) = delete;
+
+  CalibrationStatus Status() const { return status_; }
+  const std::string& Why() const { return why_; }
+  const CalibrationOptions& Options() const { return options_; }
+  const CalibrationInput& Input() const { return input_; }
+
+  // Solves options.scheme from the initial guess. alt's lower levels run on
+  // the backend that lower_levels makes (threads when empty). Returns the
+  // status of construction when it was not kSuccess.
+  CalibrationOutcome Solve(const LowerLevelBackendFactory& lower_levels = {});
+
+  // alt, for the MPI ranks that serve lower levels: the objectives and the
+  // batch hook Solve hands to its backend, and a digest of what was built
+  // (equal on every rank that read the same inputs).
+  std::vector<PairObjective> AlternatingObjectives();
+  LowerLevelBatchHook AlternatingBatchHook(const ProgressCallback& progress);
+  std::uint64_t AlternatingFingerprint() const;
+  const AlternatingProblem& AlternatingPairs() const { return alternating_.problem; }
+
+  // After Solve, the pairs of one lidar (those with scenes) prepared at
+  // T_base_lidar: sharp images, `binning`, visibility there and, with
+  // options.motion_correction, the frames' drift corrections re-estimated
+  // there (shared across the pairs), so that they score what the
+  // calibration ended on.
+  std::vector<PairCost*> PairsAt(const std::string& lidar, const Eigen::Isometry3d& T_base_lidar, Binning binning);
+  // The pair (camera, lidar) prepared as PairsAt does, or null when it has no scene.
+  PairCost* PairAt(const std::string& camera, const std::string& lidar, const Eigen::Isometry3d& T_base_lidar);
+
+  // Each lidar's local uncertainty at the result (core/uncertainty.hpp), on
+  // the B-spline cost of the same swathes.
+  std::vector<LidarUncertainty> EstimateUncertainty(const CalibrationResult& result,
+                                                    const UncertaintyOptions& uncertainty_options);
+  // The basin check at the result (core/basin_check.hpp).
+  std::vector<LidarBasinCheck> CheckBasins(const CalibrationResult& result, const BasinCheckOptions& check_options);
+
+ private:
+  struct LidarPairs {
+    const LidarInfo* lidar = nullptr;
+    std::vector<std::unique_ptr<PairCost>> pairs;  // one per camera, rig order
+    std::vector<double> initial_costs;             // per pair, at the initial guess
+  };
+
+  CalibrationStatus Cannot(CalibrationStatus status, std::string why);
+  void BuildPairs();
+  void BuildAlternatingSetup();
+  CalibrationOutcome SolveOnceOrJoint();
+  CalibrationOutcome SolveAlternating(const LowerLevelBackendFactory& lower_levels);
+  LidarPairs* FindLidar(const std::string& lidar);
+  void Say(const std::string& message) const;
+
+  const CalibrationInput& input_;
+  CalibrationOptions options_;
+  AlternatingOptions alternating_options_;
+  ProgressCallback progress_;
+  std::optional<tbb::global_control> thread_limit_;
+  CalibrationStatus status_ = CalibrationStatus::kSuccess;
+  std::string why_;
+  std::vector<LidarPairs> lidars_;  // rig order
+  AlternatingSetup alternating_;    // the pairs with usable scenes at the initial guess (alt)
+  double build_s_ = 0.0;
+};
+
+}  // namespace scenecal
