@@ -37,7 +37,7 @@ if [[ -z "$CXX_COMPILER" ]]; then
   exit 1
 fi
 if [[ ! -f "$BUILD_DIR/CMakeCache.txt" ]]; then
-  cmake -S "$ROOT" -B "$BUILD_DIR" -DCMAKE_CXX_COMPILER="$CXX_COMPILER" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+  cmake -S "$ROOT" -B "$BUILD_DIR" -DCMAKE_CXX_COMPILER="$CXX_COMPILER" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O2 -g1 -DNDEBUG" \
     -DSCENECAL_BUILD_FUZZERS=ON -DSCENECAL_BUILD_TESTS=OFF -DSCENECAL_WARNINGS_AS_ERRORS=ON >/dev/null
 fi
 cmake --build "$BUILD_DIR" -j"${SCENECAL_BUILD_JOBS:-2}" --target fuzzers >/dev/null

@@ -10,7 +10,7 @@ build=build-asan
 jobs=$(nproc 2>/dev/null || echo 2)
 # -O1 -g: fast enough under ASan (its documentation's advice) with exact lines in the reports;
 # NDEBUG as in the release build.
-cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g -DNDEBUG" \
+cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1 -DNDEBUG" \
   -DSCENECAL_SANITIZE=ON -DSCENECAL_WARNINGS_AS_ERRORS=ON -DSCENECAL_BUILD_TESTS=ON "$@" >/dev/null
 # scenecal_fast_tests: the scenecal command and every test executable not labelled slow.
 cmake --build "$build" -j "$jobs" --target scenecal_fast_tests
