@@ -235,172 +235,182 @@ CalibrationOutcome Calibrator::SolveAlternating(const LowerLevelBackendFactory& 
   return outcome;
 }
 
+void Calibrator::Optimise(const std::string& name, double initial_cost, const NelderMeadOptions& nelder_mead,
+                          const std::function<double(const Eigen::Isometry3d&)>& cost,
+                          const CostWithGradient& cost_with_gradient, const StagePreparation& prepare,
+                          Eigen::Isometry3d* transform, OnceOrJointRun* run) {
+  const CalibrationOptions& options = options_;
+  const auto problem_start = Clock::now();
+  OptimisationReport report;
+  report.problem = name;
+  Say(report.problem + ": start (" + LowerSolverName(options.lower_solver) + "), cost " + NumberText(initial_cost) +
+      ", rotation pivot (lidar frame, m) " + VectorText(nelder_mead.pivot_source));
+  MinimiseWithLowerSolver(options, options.stages, nelder_mead, cost, cost_with_gradient, prepare, transform, &report,
+                          run->stop_requested);
+  std::string brief;
+  double final_value = std::numeric_limits<double>::quiet_NaN();
+  if (options.lower_solver == LowerSolver::kLbfgs) {
+    if (!report.gradient_runs.empty()) final_value = report.gradient_runs.back().final_value;
+    brief = GradientRunsBrief(report.gradient_runs);
+  } else {
+    if (!report.stages.empty()) final_value = report.stages.back().final_value;
+    brief = StagesBrief(report.stages);
+  }
+  report.seconds = SecondsSince(problem_start);
+  Say(report.problem + ": " + brief + ", cost " +
+      (std::isnan(final_value) ? std::string("-") : NumberText(final_value)) + ", " + NumberText(report.seconds) +
+      " s");
+  run->terminations.push_back(report.problem + ": " + brief);
+  run->outcome.optimisations.push_back(report);
+}
+
+void Calibrator::CorrectMotionBeforeStage(const std::vector<PairCost*>& pairs, const OptimisationStage& stage,
+                                          const std::vector<Eigen::Isometry3d>& T_camera_lidar_now,
+                                          const std::string& lidar) {
+  if (!options_.motion_correction) return;
+  // prepare is called with the elements of options.stages (MinimiseWithLowerSolver).
+  const auto in_schedule = std::find_if(options_.stages.begin(), options_.stages.end(),
+                                        [&](const OptimisationStage& s) { return &s == &stage; });
+  if (in_schedule - options_.stages.begin() < options_.motion_correction_first_stage) return;
+  const MotionCorrectionSummary summary = EstimateMotionCorrections(pairs, T_camera_lidar_now, options_.motion);
+  // The visibility follows the re-posed scans.
+  for (std::size_t p = 0; p < pairs.size(); ++p) pairs[p]->RefreshVisibility(T_camera_lidar_now[p]);
+  std::string names;
+  for (const PairCost* pair : pairs) names += (names.empty() ? "" : ", ") + pair->Camera().name + "/" + lidar;
+  Say("motion correction (" + names + "): " + DescribeMotionCorrection(summary));
+}
+
+void Calibrator::SolveJoint(LidarPairs& problem, std::vector<Eigen::Isometry3d>* T_camera_lidar,
+                            std::vector<bool>* solved, OnceOrJointRun* run) {
+  const LidarInfo& lidar = *problem.lidar;
+  std::vector<const PairCost*> pairs;
+  for (const auto& pair : problem.pairs) pairs.push_back(pair.get());
+  Eigen::Isometry3d T_base_lidar = lidar.T_base_lidar;
+  NelderMeadOptions nelder_mead = options_.nelder_mead;
+  if (options_.pivot_at_observed_centroid) {
+    nelder_mead.pivot_source = ObservedCentroid(pairs, T_base_lidar).value_or(nelder_mead.pivot_source);
+  }
+  Optimise(
+      "joint " + lidar.name, EvaluateJoint(pairs, T_base_lidar), nelder_mead,
+      [&](const Eigen::Isometry3d& T) { return EvaluateJoint(pairs, T); },
+      [&](const Eigen::Isometry3d& T, Vector6d* gradient) {
+        return EvaluateJointWithGradient(pairs, T, nelder_mead.transform_update, nelder_mead.pivot_source, gradient);
+      },
+      [&](const OptimisationStage& stage, const Eigen::Isometry3d& T) {
+        std::vector<PairCost*> stage_pairs;
+        std::vector<Eigen::Isometry3d> stage_T_camera_lidar;
+        for (auto& pair : problem.pairs) {
+          stage_pairs.push_back(pair.get());
+          stage_T_camera_lidar.push_back(pair->Camera().T_base_camera.inverse() * T);
+          PreparePairForStage(*pair, stage, stage_T_camera_lidar.back());
+        }
+        CorrectMotionBeforeStage(stage_pairs, stage, stage_T_camera_lidar, lidar.name);
+      },
+      &T_base_lidar, run);
+  for (std::size_t p = 0; p < problem.pairs.size(); ++p) {
+    (*T_camera_lidar)[p] = problem.pairs[p]->Camera().T_base_camera.inverse() * T_base_lidar;
+    (*solved)[p] = true;
+  }
+}
+
+void Calibrator::SolveEachPair(LidarPairs& problem, std::vector<Eigen::Isometry3d>* T_camera_lidar,
+                               std::vector<bool>* solved, OnceOrJointRun* run) {
+  const LidarInfo& lidar = *problem.lidar;
+  for (std::size_t p = 0; p < problem.pairs.size(); ++p) {
+    PairCost& pair = *problem.pairs[p];
+    (*T_camera_lidar)[p] = pair.Camera().T_base_camera.inverse() * lidar.T_base_lidar;
+    if (pair.UsedSceneCount() == 0) {
+      run->outcome.result.warnings.push_back("pair " + pair.Camera().name + "/" + lidar.name +
+                                             ": no usable scene at the initial guess; pair left out");
+      continue;
+    }
+    NelderMeadOptions nelder_mead = options_.nelder_mead;
+    if (options_.pivot_at_observed_centroid) {
+      nelder_mead.pivot_source = ObservedCentroid({&pair}, lidar.T_base_lidar).value_or(nelder_mead.pivot_source);
+    }
+    Optimise(
+        "once " + pair.Camera().name + "/" + lidar.name, problem.initial_costs[p], nelder_mead,
+        [&](const Eigen::Isometry3d& T) { return pair.Evaluate(T); },
+        [&](const Eigen::Isometry3d& T, Vector6d* gradient) {
+          if (gradient == nullptr) return pair.Evaluate(T);
+          return pair.EvaluateWithGradient(T, nelder_mead.transform_update, nelder_mead.pivot_source, gradient);
+        },
+        [&](const OptimisationStage& stage, const Eigen::Isometry3d& T) {
+          PreparePairForStage(pair, stage, T);
+          CorrectMotionBeforeStage({&pair}, stage, {T}, lidar.name);
+        },
+        &(*T_camera_lidar)[p], run);
+    (*solved)[p] = true;
+  }
+}
+
+bool Calibrator::FinishLidar(LidarPairs& problem, const std::vector<Eigen::Isometry3d>& T_camera_lidar,
+                             const std::vector<bool>& solved, OnceOrJointRun* run) {
+  const LidarInfo& lidar = *problem.lidar;
+  CalibrationOutcome& outcome = run->outcome;
+  // Final costs with visibility refreshed at the answer; per-pair results.
+  std::vector<Eigen::Isometry3d> implied_base_lidar;
+  for (std::size_t p = 0; p < problem.pairs.size(); ++p) {
+    PairCost& pair = *problem.pairs[p];
+    const Eigen::Isometry3d T_initial = pair.Camera().T_base_camera.inverse() * lidar.T_base_lidar;
+    if (!solved[p]) {
+      outcome.pairs.push_back(MakePairReport(pair, T_initial, problem.initial_costs[p]));
+      continue;
+    }
+    pair.SetImageBlur(0.0);
+    pair.RefreshVisibility(T_camera_lidar[p]);
+    if (options_.motion_correction) AppendFrameMotionCorrections(pair, lidar.name, &outcome.motion_corrections);
+    PairReport report = MakePairReport(pair, T_initial, problem.initial_costs[p]);
+    report.final_cost = pair.Evaluate(T_camera_lidar[p]);
+    outcome.pairs.push_back(report);
+    outcome.result.pairs.push_back({pair.Camera().name, lidar.name, T_camera_lidar[p], report.final_cost});
+    implied_base_lidar.push_back(pair.Camera().T_base_camera * T_camera_lidar[p]);
+  }
+  if (implied_base_lidar.empty()) {
+    outcome.status = CalibrationStatus::kCannotCalibrate;
+    outcome.why = DescribeUnusable(lidar.name, problem.pairs, options_.cost.min_points_per_scene);
+    return false;
+  }
+  LidarCalibration lidar_result;
+  lidar_result.lidar = lidar.name;
+  lidar_result.T_base_lidar = MeanTransform(implied_base_lidar);
+  outcome.result.lidars.push_back(lidar_result);
+  if (options_.scheme == CalibrationScheme::kOnce && implied_base_lidar.size() > 1) {
+    RecordOnceAgreement(options_, lidar.name, implied_base_lidar, &outcome.result,
+                        [this](const std::string& message) { Say(message); });
+  }
+  return true;
+}
+
 CalibrationOutcome Calibrator::SolveOnceOrJoint() {
   const auto start = Clock::now();
-  CalibrationOutcome outcome;
   const Clock::time_point deadline =
       start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(options_.time_budget_s));
-  const StopRequested stop_requested = [&] { return options_.time_budget_s > 0.0 && Clock::now() > deadline; };
-  const CalibrationOptions& options = options_;
-  const auto say = [&](const std::string& message) { Say(message); };
-
-  CalibrationResult& result = outcome.result;
-  RecordOnceOrJointSettings(options, &result);
+  OnceOrJointRun run;
+  run.stop_requested = [&] { return options_.time_budget_s > 0.0 && Clock::now() > deadline; };
+  CalibrationResult& result = run.outcome.result;
+  RecordOnceOrJointSettings(options_, &result);
   result.timings_s["build_swathes"] = build_s_;
-  say("built " + std::to_string(lidars_.size()) + " lidar problem(s) in " + NumberText(build_s_) + " s");
+  Say("built " + std::to_string(lidars_.size()) + " lidar problem(s) in " + NumberText(build_s_) + " s");
 
-  std::vector<std::string> terminations;
   for (LidarPairs& problem : lidars_) {
-    const LidarInfo& lidar = *problem.lidar;
-    const std::vector<double>& initial_costs = problem.initial_costs;
     std::vector<Eigen::Isometry3d> T_camera_lidar(problem.pairs.size());
     std::vector<bool> solved(problem.pairs.size(), false);
-    // One optimisation problem: log its start, run the coarse-to-fine schedule
-    // on *transform with the chosen lower solver, log and record its runs.
-    // cost_with_gradient is used by lbfgs only; nelder_mead carries the
-    // parameterisation (update kind, pivot) of both solvers.
-    const auto optimise = [&](const std::string& name, double initial_cost, const NelderMeadOptions& nelder_mead,
-                              const std::function<double(const Eigen::Isometry3d&)>& cost,
-                              const CostWithGradient& cost_with_gradient,
-                              const std::function<void(const OptimisationStage&, const Eigen::Isometry3d&)>& prepare,
-                              Eigen::Isometry3d* transform) {
-      const auto problem_start = Clock::now();
-      OptimisationReport report;
-      report.problem = name;
-      say(report.problem + ": start (" + LowerSolverName(options.lower_solver) + "), cost " +
-          NumberText(initial_cost) + ", rotation pivot (lidar frame, m) " + VectorText(nelder_mead.pivot_source));
-      MinimiseWithLowerSolver(options, options.stages, nelder_mead, cost, cost_with_gradient, prepare, transform,
-                              &report, stop_requested);
-      std::string brief;
-      double final_value = std::numeric_limits<double>::quiet_NaN();
-      if (options.lower_solver == LowerSolver::kLbfgs) {
-        if (!report.gradient_runs.empty()) final_value = report.gradient_runs.back().final_value;
-        brief = GradientRunsBrief(report.gradient_runs);
-      } else {
-        if (!report.stages.empty()) final_value = report.stages.back().final_value;
-        brief = StagesBrief(report.stages);
-      }
-      report.seconds = SecondsSince(problem_start);
-      say(report.problem + ": " + brief + ", cost " +
-          (std::isnan(final_value) ? std::string("-") : NumberText(final_value)) + ", " +
-          NumberText(report.seconds) + " s");
-      terminations.push_back(report.problem + ": " + brief);
-      outcome.optimisations.push_back(report);
-    };
-    // Drift correction of the swathes before a stage (options.motion_correction):
-    // the pairs given share each frame's correction.
-    const auto correct_motion = [&](const std::vector<PairCost*>& pairs, const OptimisationStage& stage,
-                                    const std::vector<Eigen::Isometry3d>& T_camera_lidar_now) {
-      if (!options.motion_correction) return;
-      // prepare is called with the elements of options.stages (MinimiseWithLowerSolver below).
-      const auto in_schedule = std::find_if(options.stages.begin(), options.stages.end(),
-                                            [&](const OptimisationStage& s) { return &s == &stage; });
-      if (in_schedule - options.stages.begin() < options.motion_correction_first_stage) return;
-      const MotionCorrectionSummary summary = EstimateMotionCorrections(pairs, T_camera_lidar_now, options.motion);
-      // The visibility follows the re-posed scans.
-      for (std::size_t p = 0; p < pairs.size(); ++p) pairs[p]->RefreshVisibility(T_camera_lidar_now[p]);
-      std::string names;
-      for (const PairCost* pair : pairs) names += (names.empty() ? "" : ", ") + pair->Camera().name + "/" + lidar.name;
-      say("motion correction (" + names + "): " + DescribeMotionCorrection(summary));
-    };
-    if (options.scheme == CalibrationScheme::kJoint) {
-      std::vector<const PairCost*> pairs;
-      for (const auto& pair : problem.pairs) pairs.push_back(pair.get());
-      Eigen::Isometry3d T_base_lidar = lidar.T_base_lidar;
-      NelderMeadOptions nelder_mead = options.nelder_mead;
-      if (options.pivot_at_observed_centroid) {
-        nelder_mead.pivot_source = ObservedCentroid(pairs, T_base_lidar).value_or(nelder_mead.pivot_source);
-      }
-      optimise(
-          "joint " + lidar.name, EvaluateJoint(pairs, T_base_lidar), nelder_mead,
-          [&](const Eigen::Isometry3d& T) { return EvaluateJoint(pairs, T); },
-          [&](const Eigen::Isometry3d& T, Vector6d* gradient) {
-            return EvaluateJointWithGradient(pairs, T, nelder_mead.transform_update, nelder_mead.pivot_source,
-                                             gradient);
-          },
-          [&](const OptimisationStage& stage, const Eigen::Isometry3d& T) {
-            std::vector<PairCost*> stage_pairs;
-            std::vector<Eigen::Isometry3d> stage_T_camera_lidar;
-            for (auto& pair : problem.pairs) {
-              stage_pairs.push_back(pair.get());
-              stage_T_camera_lidar.push_back(pair->Camera().T_base_camera.inverse() * T);
-              PreparePairForStage(*pair, stage, stage_T_camera_lidar.back());
-            }
-            correct_motion(stage_pairs, stage, stage_T_camera_lidar);
-          },
-          &T_base_lidar);
-      for (std::size_t p = 0; p < problem.pairs.size(); ++p) {
-        T_camera_lidar[p] = problem.pairs[p]->Camera().T_base_camera.inverse() * T_base_lidar;
-        solved[p] = true;
-      }
+    if (options_.scheme == CalibrationScheme::kJoint) {
+      SolveJoint(problem, &T_camera_lidar, &solved, &run);
     } else {
-      for (std::size_t p = 0; p < problem.pairs.size(); ++p) {
-        PairCost& pair = *problem.pairs[p];
-        T_camera_lidar[p] = pair.Camera().T_base_camera.inverse() * lidar.T_base_lidar;
-        if (pair.UsedSceneCount() == 0) {
-          result.warnings.push_back("pair " + pair.Camera().name + "/" + lidar.name +
-                                    ": no usable scene at the initial guess; pair left out");
-          continue;
-        }
-        NelderMeadOptions nelder_mead = options.nelder_mead;
-        if (options.pivot_at_observed_centroid) {
-          nelder_mead.pivot_source = ObservedCentroid({&pair}, lidar.T_base_lidar).value_or(nelder_mead.pivot_source);
-        }
-        optimise(
-            "once " + pair.Camera().name + "/" + lidar.name, initial_costs[p], nelder_mead,
-            [&](const Eigen::Isometry3d& T) { return pair.Evaluate(T); },
-            [&](const Eigen::Isometry3d& T, Vector6d* gradient) {
-              if (gradient == nullptr) return pair.Evaluate(T);
-              return pair.EvaluateWithGradient(T, nelder_mead.transform_update, nelder_mead.pivot_source, gradient);
-            },
-            [&](const OptimisationStage& stage, const Eigen::Isometry3d& T) {
-              PreparePairForStage(pair, stage, T);
-              correct_motion({&pair}, stage, {T});
-            },
-            &T_camera_lidar[p]);
-        solved[p] = true;
-      }
+      SolveEachPair(problem, &T_camera_lidar, &solved, &run);
     }
-
-    // Final costs with visibility refreshed at the answer; per-pair results.
-    std::vector<Eigen::Isometry3d> implied_base_lidar;
-    for (std::size_t p = 0; p < problem.pairs.size(); ++p) {
-      PairCost& pair = *problem.pairs[p];
-      const Eigen::Isometry3d T_initial = pair.Camera().T_base_camera.inverse() * lidar.T_base_lidar;
-      if (!solved[p]) {
-        outcome.pairs.push_back(MakePairReport(pair, T_initial, initial_costs[p]));
-        continue;
-      }
-      pair.SetImageBlur(0.0);
-      pair.RefreshVisibility(T_camera_lidar[p]);
-      if (options.motion_correction) AppendFrameMotionCorrections(pair, lidar.name, &outcome.motion_corrections);
-      PairReport report = MakePairReport(pair, T_initial, initial_costs[p]);
-      report.final_cost = pair.Evaluate(T_camera_lidar[p]);
-      outcome.pairs.push_back(report);
-      result.pairs.push_back({pair.Camera().name, lidar.name, T_camera_lidar[p], report.final_cost});
-      implied_base_lidar.push_back(pair.Camera().T_base_camera * T_camera_lidar[p]);
-    }
-    if (implied_base_lidar.empty()) {
-      outcome.status = CalibrationStatus::kCannotCalibrate;
-      outcome.why = DescribeUnusable(lidar.name, problem.pairs, options.cost.min_points_per_scene);
-      return outcome;
-    }
-    LidarCalibration lidar_result;
-    lidar_result.lidar = lidar.name;
-    lidar_result.T_base_lidar = MeanTransform(implied_base_lidar);
-    result.lidars.push_back(lidar_result);
-    if (options.scheme == CalibrationScheme::kOnce && implied_base_lidar.size() > 1) {
-      RecordOnceAgreement(options, lidar.name, implied_base_lidar, &result, say);
-    }
+    if (!FinishLidar(problem, T_camera_lidar, solved, &run)) return run.outcome;
   }
   result.timings_s["optimise"] = SecondsSince(start);
   result.timings_s["total"] = build_s_ + SecondsSince(start);
-  std::string termination = CalibrationSchemeName(options.scheme) + std::string(" ") +
-                            MetricKindName(options.cost.metric) + ": ";
-  for (std::size_t i = 0; i < terminations.size(); ++i) termination += (i ? "; " : "") + terminations[i];
-  if (stop_requested()) termination += " (time budget reached)";
+  std::string termination = CalibrationSchemeName(options_.scheme) + std::string(" ") +
+                            MetricKindName(options_.cost.metric) + ": ";
+  for (std::size_t i = 0; i < run.terminations.size(); ++i) termination += (i ? "; " : "") + run.terminations[i];
+  if (run.stop_requested()) termination += " (time budget reached)";
   result.termination = termination;
-  return outcome;
+  return run.outcome;
 }
 
 Calibrator::LidarPairs* Calibrator::FindLidar(const std::string& lidar) {

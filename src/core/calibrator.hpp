@@ -81,10 +81,39 @@ class Calibrator {
     std::vector<double> initial_costs;             // per pair, at the initial guess
   };
 
+  // The state of one once/joint solve: its outcome so far, the runs' one-line summaries, the time budget.
+  struct OnceOrJointRun {
+    CalibrationOutcome outcome;
+    std::vector<std::string> terminations;
+    StopRequested stop_requested;
+  };
+  using StagePreparation = std::function<void(const OptimisationStage& stage, const Eigen::Isometry3d&)>;
+
   CalibrationStatus Cannot(CalibrationStatus status, std::string why);
   void BuildPairs();
   void BuildAlternatingSetup();
   CalibrationOutcome SolveOnceOrJoint();
+  // joint: one problem over the lidar's T_base_lidar; once: one per pair. Fill each pair's T_camera_lidar and
+  // whether it was solved.
+  void SolveJoint(LidarPairs& problem, std::vector<Eigen::Isometry3d>* T_camera_lidar, std::vector<bool>* solved,
+                  OnceOrJointRun* run);
+  void SolveEachPair(LidarPairs& problem, std::vector<Eigen::Isometry3d>* T_camera_lidar,
+                     std::vector<bool>* solved, OnceOrJointRun* run);
+  // One optimisation problem: logs its start, runs the coarse-to-fine schedule on *transform with the lower
+  // solver (cost_with_gradient for lbfgs only; nelder_mead carries both solvers' parameterisation), logs and
+  // records its runs.
+  void Optimise(const std::string& name, double initial_cost, const NelderMeadOptions& nelder_mead,
+                const std::function<double(const Eigen::Isometry3d&)>& cost,
+                const CostWithGradient& cost_with_gradient, const StagePreparation& prepare,
+                Eigen::Isometry3d* transform, OnceOrJointRun* run);
+  // Drift correction of the swathes before a stage (options.motion_correction): the pairs given share each
+  // frame's correction.
+  void CorrectMotionBeforeStage(const std::vector<PairCost*>& pairs, const OptimisationStage& stage,
+                                const std::vector<Eigen::Isometry3d>& T_camera_lidar_now, const std::string& lidar);
+  // Final costs at the answer, the pairs' and the lidar's results (the mean of the pairs' implied T_base_lidar);
+  // false (the outcome says why) when no pair was solved.
+  bool FinishLidar(LidarPairs& problem, const std::vector<Eigen::Isometry3d>& T_camera_lidar,
+                   const std::vector<bool>& solved, OnceOrJointRun* run);
   CalibrationOutcome SolveAlternating(const LowerLevelBackendFactory& lower_levels);
   LidarPairs* FindLidar(const std::string& lidar);
   void Say(const std::string& message) const;
