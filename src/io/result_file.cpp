@@ -34,10 +34,7 @@ GroundTruth ParseGroundTruth(const std::string& text, const std::string& name) {
   const YamlReader yaml(text, name);
   const YAML::Node& root = yaml.root();
   yaml.CheckKeys(root, "", {"format", "lidars", "cameras"});
-  const YAML::Node format = yaml.Required(root, "", "format");
-  if (yaml.String(format, "format") != kGroundTruthFormat) {
-    yaml.Fail(format, "format", "found " + detail::Describe(format), kGroundTruthFormat);
-  }
+  yaml.CheckFormat(root, kGroundTruthFormat);
   GroundTruth truth;
   const YAML::Node lidars = yaml.Required(root, "", "lidars");
   yaml.CheckUniqueKeys(lidars, "lidars");
@@ -159,10 +156,7 @@ CalibrationResult ParseCalibrationResult(const std::string& text, const std::str
   const YamlReader yaml(text, name);
   const YAML::Node& root = yaml.root();
   yaml.RequireMap(root, "");
-  const YAML::Node format = yaml.Required(root, "", "format");
-  if (yaml.String(format, "format") != kResultFormat) {
-    yaml.Fail(format, "format", "found " + detail::Describe(format), kResultFormat);
-  }
+  yaml.CheckFormat(root, kResultFormat);
   CalibrationResult result;
   const YAML::Node lidars = yaml.Required(root, "", "lidars");
   yaml.CheckUniqueKeys(lidars, "lidars");

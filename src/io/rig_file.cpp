@@ -206,10 +206,7 @@ Rig ParseRig(const std::string& text, const std::string& name) {
   const YamlReader yaml(text, name);
   const YAML::Node& root = yaml.root();
   yaml.CheckKeys(root, "", {"format", "base_frame", "cameras", "lidars", "extra"});
-  const YAML::Node format = yaml.Required(root, "", "format");
-  if (yaml.String(format, "format") != kRigFormat) {
-    yaml.Fail(format, "format", "found " + detail::Describe(format), kRigFormat);
-  }
+  yaml.CheckFormat(root, kRigFormat);
   Rig rig;
   std::set<std::string> names;
   ParseSensors(yaml, yaml.Required(root, "", "cameras"), "cameras", kMaxRigCameras, &names,

@@ -170,6 +170,11 @@ YAML::Node YamlReader::Required(const YAML::Node& map, const std::string& field,
   return value;
 }
 
+void YamlReader::CheckFormat(const YAML::Node& root, const char* expected) const {
+  const YAML::Node format = Required(root, "", "format");
+  if (String(format, "format") != expected) Fail(format, "format", "found " + Describe(format), expected);
+}
+
 std::string YamlReader::String(const YAML::Node& node, const std::string& field) const {
   if (!node.IsScalar()) Fail(node, field, "found " + Describe(node), "a text value");
   return node.Scalar();

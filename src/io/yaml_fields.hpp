@@ -60,6 +60,8 @@ class YamlReader {
   YAML::Node Required(const YAML::Node& map, const std::string& field, const std::string& key) const;
 
   std::string String(const YAML::Node& node, const std::string& field) const;
+  // The root's `format` key, which must be `expected` (e.g. "scenecal-dataset/1").
+  void CheckFormat(const YAML::Node& root, const char* expected) const;
   double Number(const YAML::Node& node, const std::string& field) const;  // finite
   long long Integer(const YAML::Node& node, const std::string& field) const;
   std::vector<double> Numbers(const YAML::Node& node, const std::string& field) const;  // finite
