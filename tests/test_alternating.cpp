@@ -109,20 +109,21 @@ TEST(Alternating, LevelsApartWarningNamesEnoughAlternations) {
   const AlternatingResult short_run = SolveAlternating(problem, options, backend);
   ASSERT_TRUE(short_run.success) << short_run.termination;
   ASSERT_EQ(short_run.alternations, 12) << short_run.termination;
-  const std::string warning = LevelsApartWarning(options, short_run.history.back(), false);
-  ASSERT_FALSE(warning.empty()) << "levels " << short_run.history.back().max_disagreement_translation_m << " m apart";
-  const std::string flag = "--alternations ";
-  const std::size_t at = warning.find(flag);
-  ASSERT_NE(at, std::string::npos) << warning;
-  const int suggested = std::stoi(warning.substr(at + flag.size()));
-  EXPECT_GT(suggested, options.max_alternations) << warning;
-  EXPECT_EQ(warning.find("--stage-alternations"), std::string::npos) << warning;
+  const std::optional<LevelsApart> apart = CheckLevelsApart(options, short_run.history.back(), false);
+  ASSERT_TRUE(apart.has_value()) << "levels " << short_run.history.back().max_disagreement_translation_m
+                                 << " m apart";
+  EXPECT_EQ(apart->remedy, LevelsApart::Remedy::kMoreAlternations);
+  const int suggested = apart->suggested_alternations;
+  EXPECT_GT(suggested, options.max_alternations);
+  const std::string warning = DescribeLevelsApart(*apart);
+  EXPECT_NE(warning.find(std::to_string(suggested) + " alternations"), std::string::npos) << warning;
+  EXPECT_EQ(warning.find("--"), std::string::npos) << "the core names no command-line option: " << warning;
 
   AlternatingOptions longer = options;
   longer.max_alternations = suggested;
   const AlternatingResult long_run = SolveAlternating(problem, longer, backend);
   ASSERT_TRUE(long_run.success) << long_run.termination;
-  EXPECT_EQ(LevelsApartWarning(longer, long_run.history.back(), false), "")
+  EXPECT_FALSE(CheckLevelsApart(longer, long_run.history.back(), false).has_value())
       << long_run.history.back().max_disagreement_translation_m << " m / "
       << long_run.history.back().max_disagreement_rotation_rad << " rad apart after " << long_run.alternations;
   EXPECT_NE(long_run.termination.find("converged"), std::string::npos) << long_run.termination;
@@ -130,9 +131,14 @@ TEST(Alternating, LevelsApartWarningNamesEnoughAlternations) {
   // Stages over every alternation: keep them on the first ones; a time budget: raise it.
   AlternatingOptions all_stages = options;
   all_stages.stage_alternations = 0;
-  EXPECT_NE(LevelsApartWarning(all_stages, short_run.history.back(), false).find("--stage-alternations 12"),
-            std::string::npos);
-  EXPECT_NE(LevelsApartWarning(options, short_run.history.back(), true).find("--time-budget"), std::string::npos);
+  const std::optional<LevelsApart> staged = CheckLevelsApart(all_stages, short_run.history.back(), false);
+  ASSERT_TRUE(staged.has_value());
+  EXPECT_EQ(staged->remedy, LevelsApart::Remedy::kStagesOnFirstAlternations);
+  EXPECT_EQ(staged->suggested_stage_alternations, 12);
+  EXPECT_EQ(staged->suggested_alternations, 18);
+  const std::optional<LevelsApart> budget = CheckLevelsApart(options, short_run.history.back(), true);
+  ASSERT_TRUE(budget.has_value());
+  EXPECT_EQ(budget->remedy, LevelsApart::Remedy::kLargerTimeBudget);
 }
 
 // The penalty's sigmas are the lidar's: a turn about the lidar's own origin

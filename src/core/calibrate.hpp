@@ -204,6 +204,20 @@ struct FrameMotionCorrection {
   SwatheMotionCorrection correction;
 };
 
+// alt's two levels ended apart (a warning's numbers): how far, and what would
+// close the gap. The CLI words the remedy with its options.
+struct LevelsApart {
+  enum class Remedy { kLargerTimeBudget, kStagesOnFirstAlternations, kMoreAlternations };
+  double translation_m = 0.0;  // largest gap between a pair's lower and upper solution
+  double rotation_rad = 0.0;
+  double sigma_translation_m = 0.0;  // the penalty's sigmas at the end
+  double sigma_rotation_rad = 0.0;
+  double covariance_shrink = 0.5;    // w
+  Remedy remedy = Remedy::kMoreAlternations;
+  int suggested_alternations = 0;        // kStagesOnFirstAlternations, kMoreAlternations
+  int suggested_stage_alternations = 0;  // kStagesOnFirstAlternations
+};
+
 // alt's per-alternation history (the paper's Fig. 4 and 6) with the names of its pairs.
 struct AlternatingHistory {
   AlternatingProblem problem;
@@ -218,6 +232,7 @@ struct CalibrationOutcome {
   std::vector<OptimisationReport> optimisations;
   std::vector<FrameMotionCorrection> motion_corrections;  // per pair and frame, in time order
   std::optional<AlternatingHistory> alternating;          // scheme alt
+  std::optional<LevelsApart> levels_apart;                // alt: its levels ended apart (also in result.warnings)
 };
 
 // Progress messages (one line each) for the caller to log.

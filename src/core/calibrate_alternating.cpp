@@ -51,40 +51,64 @@ int StageSpan(const AlternatingOptions& alternating) {
                                             : alternating.max_alternations;
 }
 
-std::string LevelsApartWarning(const AlternatingOptions& alternating, const AlternationRecord& last,
-                               bool stopped_by_time_budget) {
-  const double apart_m = last.max_disagreement_translation_m, apart_rad = last.max_disagreement_rotation_rad;
-  if (apart_m <= alternating.agreement_translation_m && apart_rad <= alternating.agreement_rotation_rad) return "";
-  std::string advice;
+std::optional<LevelsApart> CheckLevelsApart(const AlternatingOptions& alternating, const AlternationRecord& last,
+                                            bool stopped_by_time_budget) {
+  LevelsApart apart;
+  apart.translation_m = last.max_disagreement_translation_m;
+  apart.rotation_rad = last.max_disagreement_rotation_rad;
+  if (apart.translation_m <= alternating.agreement_translation_m &&
+      apart.rotation_rad <= alternating.agreement_rotation_rad) {
+    return std::nullopt;
+  }
+  apart.sigma_translation_m = last.sigma_translation_m;
+  apart.sigma_rotation_rad = last.sigma_rotation_rad;
+  apart.covariance_shrink = alternating.covariance_shrink;
   if (stopped_by_time_budget) {
-    advice = "the time budget stopped the run; a larger --time-budget lets the penalty tighten further";
+    apart.remedy = LevelsApart::Remedy::kLargerTimeBudget;
   } else if (StageSpan(alternating) >= alternating.max_alternations) {
-    advice = "more --alternations with the stages kept on the first ones (e.g. --alternations " +
-             std::to_string(alternating.max_alternations + 6) + " --stage-alternations " +
-             std::to_string(alternating.max_alternations) +
-             ") tighten it after the stages, toward the joint scheme's answer";
+    apart.remedy = LevelsApart::Remedy::kStagesOnFirstAlternations;
+    apart.suggested_alternations = alternating.max_alternations + 6;
+    apart.suggested_stage_alternations = alternating.max_alternations;
   } else {
     // After the stages the gap shrinks with the penalty's covariance, by w an alternation once the penalty
     // is stiffer than the cost: twice the shrinks it needs, and some; the run stops by itself once both
     // levels have settled below the stop thresholds (a known inter-camera transform 0.05 deg off: 0.018 deg
     // apart after 26, settled after 32; BENCHMARK.md, "The alternating scheme against once and joint").
-    const auto ratio = [](double apart, double stop, double agreement) {
-      return apart / (stop > 0 ? stop : agreement);
-    };
-    const double gap = std::max({ratio(apart_m, alternating.stop_translation_m, alternating.agreement_translation_m),
-                                 ratio(apart_rad, alternating.stop_rotation_rad, alternating.agreement_rotation_rad),
-                                 1.0});
+    const auto ratio = [](double gap, double stop, double agreement) { return gap / (stop > 0 ? stop : agreement); };
+    const double gap =
+        std::max({ratio(apart.translation_m, alternating.stop_translation_m, alternating.agreement_translation_m),
+                  ratio(apart.rotation_rad, alternating.stop_rotation_rad, alternating.agreement_rotation_rad), 1.0});
     const int more = static_cast<int>(std::ceil(std::log(gap) / std::log(1.0 / alternating.covariance_shrink)));
-    advice = "the gap shrinks by the penalty's factor w = " + NumberText(alternating.covariance_shrink) +
-             " with each alternation after the stages: --alternations " +
-             std::to_string(alternating.max_alternations + 2 * more + 4) +
-             " (the run stops by itself once the levels have settled) tightens it toward the joint scheme's answer";
+    apart.remedy = LevelsApart::Remedy::kMoreAlternations;
+    apart.suggested_alternations = alternating.max_alternations + 2 * more + 4;
   }
-  return "alt: the lower and upper levels ended " + NumberText(apart_m * 1000.0) + " mm / " +
-         NumberText(DegreesFromRadians(apart_rad)) + " deg apart (penalty sigma " + NumberText(last.sigma_translation_m) +
-         " m / " + NumberText(last.sigma_rotation_rad) +
+  return apart;
+}
+
+std::string DescribeLevelsApart(const LevelsApart& apart) {
+  std::string remedy;
+  switch (apart.remedy) {
+    case LevelsApart::Remedy::kLargerTimeBudget:
+      remedy = "the time budget stopped the run; a larger one lets the penalty tighten further";
+      break;
+    case LevelsApart::Remedy::kStagesOnFirstAlternations:
+      remedy = "more alternations with the stages kept on the first ones (e.g. " +
+               std::to_string(apart.suggested_alternations) + " alternations, the stages over the first " +
+               std::to_string(apart.suggested_stage_alternations) +
+               ") tighten it after the stages, toward the joint scheme's answer";
+      break;
+    case LevelsApart::Remedy::kMoreAlternations:
+      remedy = "the gap shrinks by the penalty's factor w = " + NumberText(apart.covariance_shrink) +
+               " with each alternation after the stages: " + std::to_string(apart.suggested_alternations) +
+               " alternations (the run stops by itself once the levels have settled) tighten it toward the joint "
+               "scheme's answer";
+      break;
+  }
+  return "alt: the lower and upper levels ended " + NumberText(apart.translation_m * 1000.0) + " mm / " +
+         NumberText(DegreesFromRadians(apart.rotation_rad)) + " deg apart (penalty sigma " +
+         NumberText(apart.sigma_translation_m) + " m / " + NumberText(apart.sigma_rotation_rad) +
          " rad at the end): the pairs' own minima disagree by more than the coupling had enforced, and the result "
-         "is the upper level's compromise between them; " + advice;
+         "is the upper level's compromise between them; " + remedy;
 }
 
 std::vector<double> StepScalesForAlternations(const std::vector<OptimisationStage>& stages, int max_alternations,
@@ -333,9 +357,9 @@ CalibrationOutcome FinishAlternating(AlternatingSetup& setup, const AlternatingR
                                            solved.total_gradient_evaluations);
   result.warnings = setup.warnings;
   if (!solved.history.empty()) {
-    const std::string warning = LevelsApartWarning(alternating, solved.history.back(),
-                                                   solved.termination.starts_with("time budget"));
-    if (!warning.empty()) result.warnings.push_back(warning);
+    outcome.levels_apart =
+        CheckLevelsApart(alternating, solved.history.back(), solved.termination.starts_with("time budget"));
+    if (outcome.levels_apart) result.warnings.push_back(DescribeLevelsApart(*outcome.levels_apart));
   }
   return outcome;
 }

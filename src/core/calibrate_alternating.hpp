@@ -56,12 +56,14 @@ int StageSpan(const AlternatingOptions& alternating);
 std::vector<double> StepScalesForAlternations(const std::vector<OptimisationStage>& stages, int max_alternations,
                                               int span);
 
-// The result's warning when alt's two levels ended further apart than the
-// agreement thresholds ("" when they agree), with what to change: a larger
-// --time-budget when it stopped the run, the stages kept on the first
-// alternations when they span all of them, else how many alternations more.
-std::string LevelsApartWarning(const AlternatingOptions& alternating, const AlternationRecord& last,
-                               bool stopped_by_time_budget);
+// alt's two levels ended further apart than the agreement thresholds (the
+// numbers and what to change, nullopt when they agree): a larger time budget
+// when it stopped the run, the stages kept on the first alternations when
+// they span all of them, else how many alternations in all.
+std::optional<LevelsApart> CheckLevelsApart(const AlternatingOptions& alternating, const AlternationRecord& last,
+                                            bool stopped_by_time_budget);
+// The result's warning for it, in the core's words (no command-line names).
+std::string DescribeLevelsApart(const LevelsApart& apart);
 
 // P^0's sigma (metres and radians) with L-BFGS lower levels: on the simulated
 // push-broom drives the paper's 5 m / 5 rad left alt 0.1-2.9 deg off, this
