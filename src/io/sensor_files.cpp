@@ -228,15 +228,10 @@ std::optional<std::pair<int, int>> ImageFileSize(const fs::path& path) {
 }
 
 bool ParseImageChannel(const std::string& name, ImageChannel* channel) {
-  if (name == "grey") *channel = ImageChannel::kGrey;
-  else if (name == "exg") *channel = ImageChannel::kExcessGreen;
-  else return false;
-  return true;
+  return ParseEnumName(kImageChannelNames, name, channel);
 }
 
-const char* ImageChannelName(ImageChannel channel) {
-  return channel == ImageChannel::kExcessGreen ? "exg" : "grey";
-}
+const char* ImageChannelName(ImageChannel channel) { return EnumName(kImageChannelNames, channel); }
 
 GreyImage ReadImage(const SensorFile& file, const CameraModel& camera, ImageChannel channel) {
   const std::string name = file.path.string();

@@ -16,6 +16,7 @@
 #include <opencv2/core/mat.hpp>
 
 #include "core/camera.hpp"
+#include "core/enum_names.hpp"
 #include "core/rig.hpp"
 #include "io/error.hpp"
 
@@ -42,6 +43,8 @@ std::vector<SensorFile> ListLidarScans(const std::filesystem::path& root, const 
 // lidar's near infrared strongly but is dark in grey; excess green shows it
 // bright (measured on the OpenCalib frames, BENCHMARK.md).
 enum class ImageChannel { kGrey, kExcessGreen };
+inline constexpr auto kImageChannelNames =
+    MakeEnumNames<ImageChannel>({{ImageChannel::kGrey, "grey"}, {ImageChannel::kExcessGreen, "exg"}});
 bool ParseImageChannel(const std::string& name, ImageChannel* channel);  // "grey" | "exg"
 const char* ImageChannelName(ImageChannel channel);
 
