@@ -249,102 +249,106 @@ bool CheckArguments(const ExperimentArguments& args, std::string* why) {
   return true;
 }
 
-int RunExperiment(const ExperimentArguments& given) {
-  const auto start = std::chrono::steady_clock::now();
-  const auto elapsed_s = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
-  std::string why;
-  if (!CheckArguments(given, &why)) {
-    spdlog::error("{}", why);
-    return kExitInvalidInput;
-  }
-  CalibrationOptions options;
-  ExperimentArguments args = given;
-  std::vector<std::string> setting_words = ApplySetting(&args, &options);
-  options.scenes.scenes_per_camera = args.scenes;
-  options.scenes.swathe_length_m = args.swathe_length_m;
-  options.nelder_mead.max_iterations = args.max_iterations;
-  options.nelder_mead.initial_step_translation_m = 0.05;
-  options.nelder_mead.initial_step_rotation_rad = RadiansFromDegrees(1.0);
-  ParseLowerSolver(args.lower_solver, &options.lower_solver);
-  if (options.lower_solver == LowerSolver::kLbfgs) {
+double SecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+// The calibration options every run starts from (--setting's already in
+// *options); kExitInvalidInput (logged) when they are invalid.
+int MakeRunOptions(const ExperimentArguments& args, CalibrationOptions* options) {
+  options->scenes.scenes_per_camera = args.scenes;
+  options->scenes.swathe_length_m = args.swathe_length_m;
+  options->nelder_mead.max_iterations = args.max_iterations;
+  options->nelder_mead.initial_step_translation_m = 0.05;
+  options->nelder_mead.initial_step_rotation_rad = RadiansFromDegrees(1.0);
+  ParseLowerSolver(args.lower_solver, &options->lower_solver);
+  if (options->lower_solver == LowerSolver::kLbfgs) {
     // Gradients exist only for the smooth (B-spline) histogram.
-    options.cost.histogram.binning = Binning::kBSpline;
-    options.gradient.initial_step_translation_m = options.nelder_mead.initial_step_translation_m;
-    options.gradient.initial_step_rotation_rad = options.nelder_mead.initial_step_rotation_rad;
+    options->cost.histogram.binning = Binning::kBSpline;
+    options->gradient.initial_step_translation_m = options->nelder_mead.initial_step_translation_m;
+    options->gradient.initial_step_rotation_rad = options->nelder_mead.initial_step_rotation_rad;
   }
-  options.threads = args.threads;
-  options.seed = args.seed;
-  if (!ParseStageSchedule(args.stages, &options.stages)) {
+  options->threads = args.threads;
+  options->seed = args.seed;
+  if (!ParseStageSchedule(args.stages, &options->stages)) {
     spdlog::error("--stages: expected comma-separated SCALE[:BLUR[:RESTARTS]] entries, got '{}'", args.stages);
     return kExitInvalidInput;
   }
-  if (!options.IsValid(&why)) {
+  std::string why;
+  if (!options->IsValid(&why)) {
     spdlog::error("invalid options: {}", why);
     return kExitInvalidInput;
   }
-  options.alternating.max_alternations = args.alternations;
-  options.alternating.stage_alternations = args.stage_alternations;
-  ParsePenaltyFrame(args.penalty_frame, &options.alternating.penalty_frame);  // the CLI checked the name
-  if (!AlternatingOptionsFor(options).IsValid(&why)) {
+  options->alternating.max_alternations = args.alternations;
+  options->alternating.stage_alternations = args.stage_alternations;
+  ParsePenaltyFrame(args.penalty_frame, &options->alternating.penalty_frame);  // the CLI checked the name
+  if (!AlternatingOptionsFor(*options).IsValid(&why)) {
     spdlog::error("invalid alt options: {}", why);
     return kExitInvalidInput;
   }
-  const auto thread_limit = LimitThreads(args.threads);
+  return kExitSuccess;
+}
 
-  // The dataset: given, or simulated into OUTPUT/dataset.
-  io::CheckOutputFolderWritable(args.output, "--output");
-  std::filesystem::path final_output = std::filesystem::absolute(args.output).lexically_normal();
-  if (!final_output.has_filename()) final_output = final_output.parent_path();  // "out/" -> "out"
-  // Everything is written into a hidden folder beside OUTPUT and moved into it
-  // at the end: an interrupted or failed experiment leaves OUTPUT as it was
-  // (its other files stay; dataset/, runs.csv, report.html ... are replaced).
-  io::StagedOutput staged(final_output, "experiment");
-  const std::filesystem::path& output = staged.Staging();
-  std::string dataset_path = args.dataset;
-  std::string dataset_shown = args.dataset;  // where the dataset is once the experiment is done
-  std::map<std::string, std::string> settings;
-  if (dataset_path.empty()) {
-    sim::SimulationOptions simulation;
-    sim::ParsePreset(args.preset, &simulation.preset);
-    simulation.seed = args.seed;
-    simulation.distance_m = args.distance_m;
-    simulation.overwrite = args.force;
-    if (!args.image_size.empty()) {
-      std::smatch match;
-      const std::regex pattern(R"(^(\d{1,5})[xX](\d{1,5})$)");
-      if (!std::regex_match(args.image_size, match, pattern)) {
-        spdlog::error("--image-size: expected WxH (e.g. 640x480), got '{}'", args.image_size);
-        return kExitInvalidInput;
-      }
-      simulation.image_width = std::stoi(match[1]);
-      simulation.image_height = std::stoi(match[2]);
-    }
-    if (!simulation.IsValid(&why)) {
-      spdlog::error("simulation: {}", why);
+// The experiment's dataset: where it is read from, and where it is once the
+// experiment is done.
+struct DatasetPlace {
+  std::string path;
+  std::string shown;
+};
+
+// Simulates --preset into staging/dataset, which becomes final_output/dataset
+// at the end; records the simulation in *settings. kExitInvalidInput (logged)
+// for a bad --image-size or simulation.
+int SimulateDataset(const ExperimentArguments& args, const std::filesystem::path& staging,
+                    const std::filesystem::path& final_output, DatasetPlace* place,
+                    std::map<std::string, std::string>* settings) {
+  sim::SimulationOptions simulation;
+  sim::ParsePreset(args.preset, &simulation.preset);
+  simulation.seed = args.seed;
+  simulation.distance_m = args.distance_m;
+  simulation.overwrite = args.force;
+  if (!args.image_size.empty()) {
+    std::smatch match;
+    const std::regex pattern(R"(^(\d{1,5})[xX](\d{1,5})$)");
+    if (!std::regex_match(args.image_size, match, pattern)) {
+      spdlog::error("--image-size: expected WxH (e.g. 640x480), got '{}'", args.image_size);
       return kExitInvalidInput;
     }
-    io::CheckOutputFolder(final_output / "dataset", args.force);
-    dataset_path = (output / "dataset").string();
-    dataset_shown = (final_output / "dataset").string();
-    spdlog::info("simulating preset {} (seed {}, {} m, {}x{}) into {}", args.preset, args.seed, args.distance_m,
-                 simulation.image_width, simulation.image_height, dataset_shown);
-    int last_percent = -10;
-    const sim::SimulationSummary summary =
-        sim::Simulate(simulation, dataset_path, [&](double fraction, const std::string& message) {
-          const int percent = static_cast<int>(100.0 * fraction);
-          if (percent >= last_percent + 10) {
-            last_percent = percent;
-            spdlog::info("simulate: {:3d}% {}", percent, message);
-          }
-        });
-    spdlog::info("{}", summary.BriefReport());
-    settings["simulation"] = fmt::format("preset {}, seed {}, {} m, {}x{}", args.preset, args.seed, args.distance_m,
-                                         simulation.image_width, simulation.image_height);
-  } else if (!args.image_size.empty()) {
-    spdlog::warn("--image-size applies to the simulation only; ignored with --dataset");
+    simulation.image_width = std::stoi(match[1]);
+    simulation.image_height = std::stoi(match[2]);
   }
+  std::string why;
+  if (!simulation.IsValid(&why)) {
+    spdlog::error("simulation: {}", why);
+    return kExitInvalidInput;
+  }
+  io::CheckOutputFolder(final_output / "dataset", args.force);
+  place->path = (staging / "dataset").string();
+  place->shown = (final_output / "dataset").string();
+  spdlog::info("simulating preset {} (seed {}, {} m, {}x{}) into {}", args.preset, args.seed, args.distance_m,
+               simulation.image_width, simulation.image_height, place->shown);
+  int last_percent = -10;
+  const sim::SimulationSummary summary =
+      sim::Simulate(simulation, place->path, [&](double fraction, const std::string& message) {
+        const int percent = static_cast<int>(100.0 * fraction);
+        if (percent >= last_percent + 10) {
+          last_percent = percent;
+          spdlog::info("simulate: {:3d}% {}", percent, message);
+        }
+      });
+  spdlog::info("{}", summary.BriefReport());
+  (*settings)["simulation"] = fmt::format("preset {}, seed {}, {} m, {}x{}", args.preset, args.seed, args.distance_m,
+                                          simulation.image_width, simulation.image_height);
+  return kExitSuccess;
+}
 
-  const io::Dataset dataset = io::OpenDataset(dataset_path);
+// Fits the options to the dataset: --setting (whether it fits the data, its
+// --refresh-border for these images) and calibrate's single-frame defaults,
+// both recorded in *settings. kExitInvalidInput (logged) when the setting does
+// not fit or the dataset lacks the truth of a lidar.
+int FitToDataset(const ExperimentArguments& args, const io::Dataset& dataset, const std::string& dataset_shown,
+                 CalibrationOptions* options, std::vector<std::string>* setting_words,
+                 std::map<std::string, std::string>* settings) {
   if (!dataset.ground_truth) {
     spdlog::error("{}: the experiment compares with the truth and needs ground_truth.yaml", dataset_shown);
     return kExitInvalidInput;
@@ -355,54 +359,118 @@ int RunExperiment(const ExperimentArguments& given) {
       spdlog::error("--setting {} on {}: {}", args.setting, dataset_shown, misfit);
       return kExitInvalidInput;
     }
-    options.cost.swathe.refresh_border_px = SettingRefreshBorderPx(dataset.rig);
-    setting_words.push_back(fmt::format("--refresh-border {:g}", options.cost.swathe.refresh_border_px));
-    spdlog::info("--setting {}: {}", args.setting, fmt::join(setting_words, " "));
-    settings["setting"] = fmt::format("{}: {}", args.setting, fmt::join(setting_words, " "));
+    options->cost.swathe.refresh_border_px = SettingRefreshBorderPx(dataset.rig);
+    setting_words->push_back(fmt::format("--refresh-border {:g}", options->cost.swathe.refresh_border_px));
+    spdlog::info("--setting {}: {}", args.setting, fmt::join(*setting_words, " "));
+    (*settings)["setting"] = fmt::format("{}: {}", args.setting, fmt::join(*setting_words, " "));
   }
   // The experiment has no --bins: single-frame 3D-lidar data gets calibrate's automatic defaults.
-  const std::string single_frame_defaults = ApplySingleFrameDefaults(dataset, false, &options);
+  const std::string single_frame_defaults = ApplySingleFrameDefaults(dataset, false, options);
   if (!single_frame_defaults.empty()) {
     spdlog::info("single-frame 3D-lidar data: {}", single_frame_defaults);
-    settings["single_frame_defaults"] = single_frame_defaults;
+    (*settings)["single_frame_defaults"] = single_frame_defaults;
   }
-  const GroundTruth& truth = *dataset.ground_truth;
   for (const LidarInfo& lidar : dataset.rig.lidars) {
-    if (truth.T_base_lidar.find(lidar.name) == truth.T_base_lidar.end()) {
+    if (dataset.ground_truth->T_base_lidar.find(lidar.name) == dataset.ground_truth->T_base_lidar.end()) {
       spdlog::error("{}: ground_truth.yaml has no T_base_lidar for lidar {}", dataset_shown, lidar.name);
       return kExitInvalidInput;
     }
   }
+  return kExitSuccess;
+}
 
-  CalibrationInput input;
-  input.rig = dataset.rig;
-  const LoadedScenes loaded = SelectAndLoadScenes(dataset, options.scenes, &input);
-  spdlog::info("loaded {} images, {} scans, {} lidar points in {:.1f} s", loaded.images, loaded.scans,
-               loaded.lidar_points, elapsed_s());
+using Guess = std::map<std::string, Eigen::Isometry3d>;  // per lidar: the initial T_base_lidar
 
-  // The guesses, per lidar: the truth moved by exactly the given magnitudes.
+// The guesses, per lidar: the truth moved by exactly the given magnitudes.
+std::vector<Guess> DrawGuesses(const ExperimentArguments& args, const Rig& rig, const GroundTruth& truth) {
   std::mt19937_64 rng(args.seed);
-  std::vector<std::map<std::string, Eigen::Isometry3d>> guesses(static_cast<std::size_t>(args.guesses));
+  std::vector<Guess> guesses(static_cast<std::size_t>(args.guesses));
   for (auto& guess : guesses) {
-    for (const LidarInfo& lidar : dataset.rig.lidars) {
+    for (const LidarInfo& lidar : rig.lidars) {
       guess[lidar.name] =
           PerturbExactly(truth.T_base_lidar.at(lidar.name), args.perturb_translation_m, args.perturb_rotation_deg, rng);
     }
   }
-  const auto set_guess = [&](int g) {
-    for (LidarInfo& lidar : input.rig.lidars) lidar.T_base_lidar = guesses[static_cast<std::size_t>(g)].at(lidar.name);
-  };
+  return guesses;
+}
 
+void SetGuess(const Guess& guess, Rig* rig) {
+  for (LidarInfo& lidar : rig->lidars) lidar.T_base_lidar = guess.at(lidar.name);
+}
+
+// Every calibration's records (one per lidar), and the first guess's results
+// per method for the overlays.
+struct ExperimentRuns {
+  std::vector<RunRecord> runs;
+  std::map<std::string, std::map<std::string, Eigen::Isometry3d>> first_guess_results;  // method -> lidar -> result
+  int done = 0;  // calibrations run
+};
+
+// Adds the records of one calibration from guess g (one per lidar of `rig`,
+// which holds the guess) to *experiment; returns the summary for its log line.
+std::string RecordCalibration(const CalibrationOutcome& outcome, const Rig& rig, const GroundTruth& truth, int g,
+                              const std::string& scheme, const std::string& metric, double seconds,
+                              ExperimentRuns* experiment) {
+  int evaluations = 0;
+  for (const OptimisationReport& optimisation : outcome.optimisations) evaluations += optimisation.evaluations;
+  if (evaluations == 0 && outcome.alternating) evaluations = outcome.alternating->solved.total_evaluations;
+  std::string summary;
+  for (const LidarInfo& lidar : rig.lidars) {
+    RunRecord run;
+    run.guess = g;
+    run.scheme = scheme;
+    run.metric = metric;
+    run.lidar = lidar.name;
+    run.T_base_lidar_initial = lidar.T_base_lidar;
+    run.T_base_lidar_truth = truth.T_base_lidar.at(lidar.name);
+    run.evaluations = evaluations;
+    run.seconds = seconds;
+    run.termination = outcome.status == CalibrationStatus::kSuccess ? outcome.result.termination : outcome.why;
+    for (const LidarCalibration& result : outcome.result.lidars) {
+      if (result.lidar == lidar.name && outcome.status == CalibrationStatus::kSuccess) {
+        run.success = true;
+        run.T_base_lidar = result.T_base_lidar;
+      }
+    }
+    double initial_sum = 0, final_sum = 0;
+    int pairs = 0;
+    for (const PairReport& pair : outcome.pairs) {
+      if (pair.lidar != lidar.name) continue;
+      initial_sum += pair.initial_cost;
+      final_sum += pair.final_cost;
+      ++pairs;
+    }
+    if (pairs > 0) {
+      run.initial_cost = initial_sum / pairs;
+      run.final_cost = final_sum / pairs;
+    }
+    if (run.success) {
+      if (g == 0) experiment->first_guess_results[Method(scheme, metric)][lidar.name] = run.T_base_lidar;
+      summary += fmt::format(" {}: {:.2f} cm, {:.3f} deg;", lidar.name,
+                             100.0 * TranslationError(run.T_base_lidar, run.T_base_lidar_truth),
+                             RotationErrorDegrees(run.T_base_lidar, run.T_base_lidar_truth));
+    } else {
+      summary += fmt::format(" {}: failed ({});", lidar.name, run.termination);
+    }
+    experiment->runs.push_back(std::move(run));
+  }
+  return summary;
+}
+
+// Calibrates with every scheme x metric from every guess (set in input->rig),
+// and rewrites output/runs.csv after every calibration.
+ExperimentRuns RunCalibrations(const ExperimentArguments& args, const CalibrationOptions& options,
+                               const GroundTruth& truth, const std::vector<Guess>& guesses,
+                               std::chrono::steady_clock::time_point start, const std::filesystem::path& output,
+                               CalibrationInput* input) {
   const int total = args.guesses * static_cast<int>(args.schemes.size() * args.metrics.size());
   spdlog::info("{} runs: {} guesses x schemes {} x metrics {}; guesses {} m, {} deg from the truth (seed {})", total,
                args.guesses, fmt::join(args.schemes, ","), fmt::join(args.metrics, ","), args.perturb_translation_m,
                args.perturb_rotation_deg, args.seed);
-  std::vector<RunRecord> runs;
-  std::map<std::string, std::map<std::string, Eigen::Isometry3d>> first_guess_results;  // method -> lidar -> result
-  int done = 0;
-  const double calibration_start_s = elapsed_s();
+  ExperimentRuns experiment;
+  const double calibration_start_s = SecondsSince(start);
   for (int g = 0; g < args.guesses; ++g) {
-    set_guess(g);
+    SetGuess(guesses[static_cast<std::size_t>(g)], &input->rig);
     for (const std::string& scheme : args.schemes) {
       for (const std::string& metric : args.metrics) {
         CalibrationOptions run_options = options;
@@ -410,65 +478,31 @@ int RunExperiment(const ExperimentArguments& given) {
         run_options.cost.metric = *ParseMetricKind(metric);
         const auto run_start = std::chrono::steady_clock::now();
         const auto log_progress = [](const std::string& message) { spdlog::debug("{}", message); };
-        const CalibrationOutcome outcome = Calibrate(input, run_options, log_progress);
-        const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - run_start).count();
-        int evaluations = 0;
-        for (const OptimisationReport& optimisation : outcome.optimisations) evaluations += optimisation.evaluations;
-        if (evaluations == 0 && outcome.alternating) evaluations = outcome.alternating->solved.total_evaluations;
-        std::string summary;
-        for (const LidarInfo& lidar : input.rig.lidars) {
-          RunRecord run;
-          run.guess = g;
-          run.scheme = scheme;
-          run.metric = metric;
-          run.lidar = lidar.name;
-          run.T_base_lidar_initial = lidar.T_base_lidar;
-          run.T_base_lidar_truth = truth.T_base_lidar.at(lidar.name);
-          run.evaluations = evaluations;
-          run.seconds = seconds;
-          run.termination = outcome.status == CalibrationStatus::kSuccess ? outcome.result.termination : outcome.why;
-          for (const LidarCalibration& result : outcome.result.lidars) {
-            if (result.lidar == lidar.name && outcome.status == CalibrationStatus::kSuccess) {
-              run.success = true;
-              run.T_base_lidar = result.T_base_lidar;
-            }
-          }
-          double initial_sum = 0, final_sum = 0;
-          int pairs = 0;
-          for (const PairReport& pair : outcome.pairs) {
-            if (pair.lidar != lidar.name) continue;
-            initial_sum += pair.initial_cost;
-            final_sum += pair.final_cost;
-            ++pairs;
-          }
-          if (pairs > 0) {
-            run.initial_cost = initial_sum / pairs;
-            run.final_cost = final_sum / pairs;
-          }
-          if (run.success) {
-            if (g == 0) first_guess_results[Method(scheme, metric)][lidar.name] = run.T_base_lidar;
-            summary += fmt::format(" {}: {:.2f} cm, {:.3f} deg;", lidar.name,
-                                   100.0 * TranslationError(run.T_base_lidar, run.T_base_lidar_truth),
-                                   RotationErrorDegrees(run.T_base_lidar, run.T_base_lidar_truth));
-          } else {
-            summary += fmt::format(" {}: failed ({});", lidar.name, run.termination);
-          }
-          runs.push_back(std::move(run));
-        }
-        ++done;
-        const double spent_s = elapsed_s() - calibration_start_s;
+        const CalibrationOutcome outcome = Calibrate(*input, run_options, log_progress);
+        const double seconds = SecondsSince(run_start);
+        const std::string summary =
+            RecordCalibration(outcome, input->rig, truth, g, scheme, metric, seconds, &experiment);
+        const int done = ++experiment.done;
+        const double spent_s = SecondsSince(start) - calibration_start_s;
         spdlog::log(outcome.status == CalibrationStatus::kSuccess ? spdlog::level::info : spdlog::level::warn,
                     "[{}/{}] guess {} {}:{} ({:.1f} s) | elapsed {}, about {} left", done, total, g + 1,
-                    Method(scheme, metric), summary, seconds, FormatDuration(elapsed_s()),
+                    Method(scheme, metric), summary, seconds, FormatDuration(SecondsSince(start)),
                     FormatDuration(spent_s / done * (total - done)));
         // Written after every run (in the staging folder: a run that is
         // killed outright leaves it there, hidden beside OUTPUT, with what it measured).
-        io::WriteFileAtomically((output / "runs.csv").string(), RunsCsv(runs));
+        io::WriteFileAtomically((output / "runs.csv").string(), RunsCsv(experiment.runs));
       }
     }
   }
+  return experiment;
+}
 
-  // The report: Fig. 7 box plots, Fig. 8 per-DoF errors, the runs, overlays.
+// The report's methods, runs and settings (the overlays apart): Fig. 7 box
+// plots, Fig. 8 per-DoF errors, the runs.
+report::ExperimentReportData MakeReportData(const ExperimentArguments& args, const CalibrationOptions& options,
+                                            const std::vector<RunRecord>& runs, const std::string& dataset_shown,
+                                            const std::map<std::string, std::string>& settings,
+                                            std::chrono::steady_clock::time_point start) {
   report::ExperimentReportData data;
   data.title = fmt::format("scenecal experiment: {} guesses x {} schemes x {} metrics", args.guesses,
                            args.schemes.size(), args.metrics.size());
@@ -509,49 +543,106 @@ int RunExperiment(const ExperimentArguments& given) {
     data.settings["Nelder-Mead iterations per stage"] = std::to_string(args.max_iterations);
   }
   data.settings["stages"] = args.stages;
-  data.settings["wall time"] = FormatDuration(elapsed_s());
+  data.settings["wall time"] = FormatDuration(SecondsSince(start));
+  return data;
+}
 
-  // Overlays of the first guess: the headline method (alt-nid when run) per pair.
-  std::string overlay_method = data.methods.front();
+// Overlays of the first guess: the headline method (alt-nid when run) per pair.
+void AddOverlays(const ExperimentArguments& args, const CalibrationOptions& options, const ExperimentRuns& experiment,
+                 const std::vector<Guess>& guesses, CalibrationInput* input, report::ExperimentReportData* data) {
+  const auto& first_guess_results = experiment.first_guess_results;
+  std::string overlay_method = data->methods.front();
   if (first_guess_results.count("alt-nid") != 0) overlay_method = "alt-nid";
   else if (!first_guess_results.empty() && first_guess_results.count(overlay_method) == 0)
     overlay_method = first_guess_results.begin()->first;
-  if (args.overlay_scenes > 0 && first_guess_results.count(overlay_method) != 0) {
-    set_guess(0);
-    CalibrationOptions overlay_options = options;
-    ParseCalibrationScheme(overlay_method.substr(0, overlay_method.find('-')), &overlay_options.scheme);
-    overlay_options.cost.metric = *ParseMetricKind(overlay_method.substr(overlay_method.find('-') + 1));
-    for (const auto& [lidar_name, T_base_lidar] : first_guess_results.at(overlay_method)) {
-      const LidarInfo* lidar = input.rig.FindLidar(lidar_name);
-      for (const CameraInfo& camera : input.rig.cameras) {
-        PairCost cost = BuildPairCost(input, camera, lidar_name, overlay_options);
-        if (cost.Scenes().empty()) continue;
-        const Eigen::Isometry3d T_camera_lidar_initial = camera.T_base_camera.inverse() * lidar->T_base_lidar;
-        const Eigen::Isometry3d T_camera_lidar = camera.T_base_camera.inverse() * T_base_lidar;
-        PreparePairForStage(cost, OptimisationStage{1.0, 0.0, 0}, T_camera_lidar);
-        for (report::OverlayFigure& figure :
-             report::MakePairOverlays(cost, T_camera_lidar_initial, T_camera_lidar,
-                                      fmt::format("overlay_{}_{}_{}", overlay_method, camera.name, lidar_name),
-                                      args.overlay_scenes)) {
-          figure.title = overlay_method + ", guess 1: " + figure.title;
-          data.overlays.push_back(std::move(figure));
-        }
+  if (args.overlay_scenes <= 0 || first_guess_results.count(overlay_method) == 0) return;
+  SetGuess(guesses.front(), &input->rig);
+  CalibrationOptions overlay_options = options;
+  ParseCalibrationScheme(overlay_method.substr(0, overlay_method.find('-')), &overlay_options.scheme);
+  overlay_options.cost.metric = *ParseMetricKind(overlay_method.substr(overlay_method.find('-') + 1));
+  for (const auto& [lidar_name, T_base_lidar] : first_guess_results.at(overlay_method)) {
+    const LidarInfo* lidar = input->rig.FindLidar(lidar_name);
+    for (const CameraInfo& camera : input->rig.cameras) {
+      PairCost cost = BuildPairCost(*input, camera, lidar_name, overlay_options);
+      if (cost.Scenes().empty()) continue;
+      const Eigen::Isometry3d T_camera_lidar_initial = camera.T_camera_base() * lidar->T_base_lidar;
+      const Eigen::Isometry3d T_camera_lidar = camera.T_camera_base() * T_base_lidar;
+      PreparePairForStage(cost, OptimisationStage{1.0, 0.0, 0}, T_camera_lidar);
+      for (report::OverlayFigure& figure :
+           report::MakePairOverlays(cost, T_camera_lidar_initial, T_camera_lidar,
+                                    fmt::format("overlay_{}_{}_{}", overlay_method, camera.name, lidar_name),
+                                    args.overlay_scenes)) {
+        figure.title = overlay_method + ", guess 1: " + figure.title;
+        data->overlays.push_back(std::move(figure));
       }
     }
   }
+}
+
+int RunExperiment(const ExperimentArguments& given) {
+  const auto start = std::chrono::steady_clock::now();
+  std::string why;
+  if (!CheckArguments(given, &why)) {
+    spdlog::error("{}", why);
+    return kExitInvalidInput;
+  }
+  CalibrationOptions options;
+  ExperimentArguments args = given;
+  std::vector<std::string> setting_words = ApplySetting(&args, &options);
+  if (const int exit_code = MakeRunOptions(args, &options); exit_code != kExitSuccess) return exit_code;
+  const auto thread_limit = LimitThreads(args.threads);
+
+  // The dataset: given, or simulated into OUTPUT/dataset.
+  io::CheckOutputFolderWritable(args.output, "--output");
+  std::filesystem::path final_output = std::filesystem::absolute(args.output).lexically_normal();
+  if (!final_output.has_filename()) final_output = final_output.parent_path();  // "out/" -> "out"
+  // Everything is written into a hidden folder beside OUTPUT and moved into it
+  // at the end: an interrupted or failed experiment leaves OUTPUT as it was
+  // (its other files stay; dataset/, runs.csv, report.html ... are replaced).
+  io::StagedOutput staged(final_output, "experiment");
+  const std::filesystem::path& output = staged.Staging();
+  DatasetPlace dataset_place{args.dataset, args.dataset};
+  std::map<std::string, std::string> settings;
+  if (dataset_place.path.empty()) {
+    if (const int exit_code = SimulateDataset(args, output, final_output, &dataset_place, &settings);
+        exit_code != kExitSuccess) {
+      return exit_code;
+    }
+  } else if (!args.image_size.empty()) {
+    spdlog::warn("--image-size applies to the simulation only; ignored with --dataset");
+  }
+
+  const io::Dataset dataset = io::OpenDataset(dataset_place.path);
+  if (const int exit_code = FitToDataset(args, dataset, dataset_place.shown, &options, &setting_words, &settings);
+      exit_code != kExitSuccess) {
+    return exit_code;
+  }
+  const GroundTruth& truth = *dataset.ground_truth;
+  CalibrationInput input;
+  input.rig = dataset.rig;
+  const LoadedScenes loaded = SelectAndLoadScenes(dataset, options.scenes, &input);
+  spdlog::info("loaded {} images, {} scans, {} lidar points in {:.1f} s", loaded.images, loaded.scans,
+               loaded.lidar_points, SecondsSince(start));
+
+  const std::vector<Guess> guesses = DrawGuesses(args, dataset.rig, truth);
+  const ExperimentRuns experiment = RunCalibrations(args, options, truth, guesses, start, output, &input);
+
+  // The report: Fig. 7 box plots, Fig. 8 per-DoF errors, the runs, overlays.
+  report::ExperimentReportData data =
+      MakeReportData(args, options, experiment.runs, dataset_place.shown, settings, start);
+  AddOverlays(args, options, experiment, guesses, &input, &data);
   report::WriteReportDirectory(output.string(), report::RenderExperimentReport(data),
                                report::ExperimentReportAttachments(data));
   spdlog::info("wrote {} and {} ({} runs, {})", (final_output / "runs.csv").string(),
-               (final_output / "report.html").string(),
-               done, FormatDuration(elapsed_s()));
+               (final_output / "report.html").string(), experiment.done, FormatDuration(SecondsSince(start)));
 
   // A summary per method (Markdown) on stdout and in DIR/summary.md.
-  const std::string summary = SummaryTable(runs, data.methods);
+  const std::string summary = SummaryTable(experiment.runs, data.methods);
   fmt::print("{}", summary);
   io::WriteFileAtomically((output / "summary.md").string(), summary);
   staged.CommitEntries();
   bool any_success = false;
-  for (const RunRecord& run : runs) any_success = any_success || run.success;
+  for (const RunRecord& run : experiment.runs) any_success = any_success || run.success;
   if (!any_success) {
     spdlog::error("no run could be calibrated (see the termination column of {})",
                   (final_output / "runs.csv").string());

@@ -139,28 +139,88 @@ struct Profile {
   bool in_summary = true;                    // printed in the summary table (not the --per-scene curves)
 };
 
-int RunProfile(const ProfileArguments& args) {
-  const auto start = std::chrono::steady_clock::now();
-  io::CheckOutputFile(args.output, "--output");
-  CalibrationOptions options;
-  ApplyCostArguments(args.cost, &options);
-  std::string why;
-  if (!options.IsValid(&why)) {
-    spdlog::error("invalid options: {}", why);
-    return kExitInvalidInput;
-  }
-  const auto thread_limit = LimitThreads(args.threads);
-  std::string single_frame_defaults;
-  const io::Dataset dataset = OpenDatasetWithDefaults(args.dataset, args.cost, &options, &single_frame_defaults);
+// Offsets as written: metres, degrees, or the line's fraction.
+double WrittenOffset(int dof, double offset) { return dof >= 3 && dof < kLine ? DegreesFromRadians(offset) : offset; }
 
-  CalibrationInput input;
-  input.rig = dataset.rig;
-  if (!args.lidar.empty() && input.rig.FindLidar(args.lidar) == nullptr) {
+// Where every profile is sampled: the same offsets along each DoF, then along
+// the line toward --toward.
+class DofSampler {
+ public:
+  explicit DofSampler(const ProfileArguments& args)
+      : args_(args), samples_(args.samples | 1), dofs_(args.toward.empty() ? 6 : 7) {}
+
+  int samples() const { return samples_; }  // per DoF: odd, so the centre itself is sampled
+  int dofs() const { return dofs_; }        // the six, and the line with --toward
+
+  // The offsets along a DoF: metres (x, y, z) or radians (roll, pitch, yaw).
+  // The line's offsets are fractions of the way to the target.
+  std::vector<double> Offsets(int dof) const {
+    const double half = dof < 3 ? args_.half_range_translation_m : RadiansFromDegrees(args_.half_range_rotation_deg);
+    const double first = dof == kLine ? kLineFirst : -half, last = dof == kLine ? kLineLast : half;
+    // The line has the DoFs' step relative to its half-range 1, so it samples 0 and 1 exactly.
+    const int count = dof == kLine ? 3 * (samples_ - 1) / 2 + 1 : samples_;
+    std::vector<double> offsets(static_cast<std::size_t>(count), 0.0);
+    for (int i = 0; count > 1 && i < count; ++i) offsets[i] = first + (last - first) * i / (count - 1);
+    return offsets;
+  }
+
+  // Cost evaluations per profile.
+  int Evaluations() const { return 6 * samples_ + (dofs_ > 6 ? static_cast<int>(Offsets(kLine).size()) : 0); }
+
+  // Samples cost(T, dof) along each DoF of the local update about the centre's
+  // origin, then along the update that reaches `target`.
+  void Sample(const std::function<double(const Eigen::Isometry3d&, int dof)>& cost, const Eigen::Isometry3d& centre,
+              const Eigen::Isometry3d& target, Profile* profile) const {
+    const Vector6d to_target = TransformUpdateBetween(centre, target, TransformUpdate::kAboutSourcePoint);
+    for (int dof = 0; dof < dofs_; ++dof) {
+      const std::vector<double> offsets = Offsets(dof);
+      profile->costs[dof].resize(offsets.size());
+      for (std::size_t i = 0; i < offsets.size(); ++i) {
+        ThrowIfInterrupted();
+        Vector6d delta = Vector6d::Zero();
+        if (dof == kLine) {
+          delta = offsets[i] * to_target;
+        } else {
+          delta(dof) = offsets[i];
+        }
+        profile->costs[dof][i] = cost(ApplyTransformUpdate(centre, delta, TransformUpdate::kAboutSourcePoint), dof);
+      }
+    }
+  }
+
+ private:
+  const ProfileArguments& args_;
+  int samples_;
+  int dofs_;
+};
+
+// The sampled profiles and their CSV rows.
+struct ProfileTable {
+  std::vector<Profile> profiles;
+  std::string csv = "profile,frame,dof,offset,cost\n";
+
+  void Append(const Profile& profile, const DofSampler& sampler) {
+    for (int dof = 0; dof < sampler.dofs(); ++dof) {
+      const std::vector<double> offsets = sampler.Offsets(dof);
+      for (std::size_t i = 0; i < offsets.size(); ++i) {
+        csv += fmt::format("{},{},{},{:.9g},{:.9g}\n", profile.name, profile.frame, kDofNames[dof],
+                           WrittenOffset(dof, offsets[i]), profile.costs[dof][i]);
+      }
+    }
+    profiles.push_back(profile);
+  }
+};
+
+// Moves each lidar to profile (--lidar, or every lidar with the extrinsics
+// asked for) to its centre (--at) in input->rig (it also becomes the "initial
+// guess" whose projecting scans swathe trimming keeps), and finds its --toward
+// target. Returns kExitInvalidInput (logged) when the extrinsics are missing.
+int PlaceLidarsAtCentres(const ProfileArguments& args, const io::Dataset& dataset, CalibrationInput* input,
+                         std::map<std::string, Eigen::Isometry3d>* targets, std::vector<std::string>* profiled) {
+  if (!args.lidar.empty() && input->rig.FindLidar(args.lidar) == nullptr) {
     spdlog::error("--lidar {}: {}/rig.yaml has no lidar of that name", args.lidar, args.dataset);
     return kExitInvalidInput;
   }
-  // The centre of each lidar's profile (it also becomes the "initial guess"
-  // whose projecting scans swathe trimming keeps) and the --toward target.
   for (const std::string* spec : {&args.at, &args.toward}) {
     if (*spec == "truth" && !dataset.ground_truth) {
       spdlog::error("{} truth needs {}/ground_truth.yaml (simulated data); use guess or the path of a result",
@@ -170,9 +230,7 @@ int RunProfile(const ProfileArguments& args) {
   }
   const std::optional<CalibrationResult> at_result = ReadResultIfPath(args.at);
   const std::optional<CalibrationResult> toward_result = ReadResultIfPath(args.toward);
-  std::map<std::string, Eigen::Isometry3d> targets;
-  std::vector<std::string> profiled;
-  for (LidarInfo& lidar : input.rig.lidars) {
+  for (LidarInfo& lidar : input->rig.lidars) {
     if (!args.lidar.empty() && lidar.name != args.lidar) continue;
     const auto centre = FindExtrinsic(args.at, dataset, at_result, lidar);
     const auto target = args.toward.empty() ? centre : FindExtrinsic(args.toward, dataset, toward_result, lidar);
@@ -189,140 +247,95 @@ int RunProfile(const ProfileArguments& args) {
     }
     if (!centre || !target) continue;
     lidar.T_base_lidar = *centre;
-    targets[lidar.name] = *target;
-    profiled.push_back(lidar.name);
+    (*targets)[lidar.name] = *target;
+    profiled->push_back(lidar.name);
   }
-  if (profiled.empty()) {
+  if (profiled->empty()) {
     spdlog::error("no lidar to profile");
     return kExitInvalidInput;
   }
-  const LoadedScenes loaded = SelectAndLoadScenes(dataset, options.scenes, &input, args.cost.ImageChannel());
-  spdlog::info("loaded {} lidar points in {:.2f} s", loaded.lidar_points,
-               std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  return kExitSuccess;
+}
 
-  const bool want_joint = args.costs != "pairs";
-  const bool want_pairs = args.costs != "joint";
-  const int samples = args.samples | 1;  // odd, so the centre itself is sampled
-  // The offsets along a DoF: metres (x, y, z) or radians (roll, pitch, yaw).
-  // The line's offsets are fractions of the way to the target.
-  const auto offsets_of = [&](int dof) {
-    const double half = dof < 3 ? args.half_range_translation_m : RadiansFromDegrees(args.half_range_rotation_deg);
-    const double first = dof == kLine ? kLineFirst : -half, last = dof == kLine ? kLineLast : half;
-    // The line has the DoFs' step relative to its half-range 1, so it samples 0 and 1 exactly.
-    const int count = dof == kLine ? 3 * (samples - 1) / 2 + 1 : samples;
-    std::vector<double> offsets(static_cast<std::size_t>(count), 0.0);
-    for (int i = 0; count > 1 && i < count; ++i) offsets[i] = first + (last - first) * i / (count - 1);
-    return offsets;
-  };
-  const int dofs = args.toward.empty() ? 6 : 7;
-  // Offsets as written: metres, degrees, or the line's fraction.
-  const auto written = [](int dof, double offset) {
-    return dof >= 3 && dof < kLine ? DegreesFromRadians(offset) : offset;
-  };
-  std::vector<Profile> profiles;
-  std::string csv = "profile,frame,dof,offset,cost\n";
-  const auto append = [&](const Profile& profile) {
-    for (int dof = 0; dof < dofs; ++dof) {
-      const std::vector<double> offsets = offsets_of(dof);
-      for (std::size_t i = 0; i < offsets.size(); ++i) {
-        csv += fmt::format("{},{},{},{:.9g},{:.9g}\n", profile.name, profile.frame, kDofNames[dof],
-                           written(dof, offsets[i]), profile.costs[dof][i]);
-      }
+// The profile of one pair's cost (T_camera_lidar along camera axes, from the
+// lidar's centre toward T_base_lidar_target) and, with --per-scene, of every
+// used scene's own cost along the same samples (one evaluation gives them all).
+void ProfilePair(const PairCost& pair, const LidarInfo& lidar, const Eigen::Isometry3d& T_base_lidar_target,
+                 bool per_scene, const DofSampler& sampler, ProfileTable* table) {
+  Profile profile{pair.Camera().name + "/" + lidar.name, pair.Camera().name, {}};
+  spdlog::info("profiling {} ({} evaluations)", profile.name, sampler.Evaluations());
+  const Eigen::Isometry3d T_camera_base = pair.Camera().T_camera_base();
+  std::vector<std::size_t> used_scenes;
+  for (std::size_t s = 0; s < pair.States().size(); ++s) {
+    if (per_scene && pair.States()[s] == SceneState::kUsed) used_scenes.push_back(s);
+  }
+  std::vector<Profile> scene_profiles(used_scenes.size());
+  const auto cost = [&](const Eigen::Isometry3d& T, int dof) {
+    if (used_scenes.empty()) return pair.Evaluate(T);
+    const std::vector<SceneEvaluation> scenes = pair.EvaluateScenes(T);
+    double sum = 0.0;
+    for (std::size_t k = 0; k < used_scenes.size(); ++k) {
+      std::vector<double>& costs = scene_profiles[k].costs[static_cast<std::size_t>(dof)];
+      costs.push_back(scenes[used_scenes[k]].cost);
+      sum += costs.back();
     }
-    profiles.push_back(profile);
+    return sum / static_cast<double>(used_scenes.size());
   };
-  int current_dof = 0;  // the DoF being sampled (for the --per-scene curves)
-  const int evaluations = 6 * samples + (dofs > 6 ? static_cast<int>(offsets_of(kLine).size()) : 0);
-  // Samples cost(T) along each DoF of the local update about the centre's
-  // origin, then along the update that reaches `target`.
-  const auto sample = [&](const std::function<double(const Eigen::Isometry3d&)>& cost, const Eigen::Isometry3d& centre,
-                          const Eigen::Isometry3d& target, Profile* profile) {
-    const Vector6d to_target = TransformUpdateBetween(centre, target, TransformUpdate::kAboutSourcePoint);
-    for (int dof = 0; dof < dofs; ++dof) {
-      const std::vector<double> offsets = offsets_of(dof);
-      profile->costs[dof].resize(offsets.size());
-      current_dof = dof;
-      for (std::size_t i = 0; i < offsets.size(); ++i) {
-        ThrowIfInterrupted();
-        Vector6d delta = Vector6d::Zero();
-        if (dof == kLine) {
-          delta = offsets[i] * to_target;
-        } else {
-          delta(dof) = offsets[i];
-        }
-        profile->costs[dof][i] = cost(ApplyTransformUpdate(centre, delta, TransformUpdate::kAboutSourcePoint));
-      }
-    }
-  };
+  sampler.Sample(cost, T_camera_base * lidar.T_base_lidar, T_camera_base * T_base_lidar_target, &profile);
+  table->Append(profile, sampler);
+  for (std::size_t k = 0; k < used_scenes.size(); ++k) {
+    scene_profiles[k].name = fmt::format("{} scene {}", profile.name, pair.Scenes()[used_scenes[k]].ImageTime());
+    scene_profiles[k].frame = profile.frame;
+    scene_profiles[k].in_summary = false;
+    table->Append(scene_profiles[k], sampler);
+  }
+}
 
-  for (const LidarInfo& lidar : input.rig.lidars) {
-    if (std::find(profiled.begin(), profiled.end(), lidar.name) == profiled.end()) continue;
-    std::vector<std::unique_ptr<PairCost>> pairs;
-    std::vector<const PairCost*> used_pairs;
-    for (const CameraInfo& camera : input.rig.cameras) {
-      auto pair = std::make_unique<PairCost>(BuildPairCost(input, camera, lidar.name, options));
-      pair->SetImageBlur(args.blur_fraction);
-      const int used = pair->RefreshVisibility(camera.T_base_camera.inverse() * lidar.T_base_lidar);
-      spdlog::info("pair {}/{}: {} of {} scenes used at the centre", camera.name, lidar.name, used,
-                   pair->SceneCount());
-      if (used > 0) used_pairs.push_back(pair.get());
-      pairs.push_back(std::move(pair));
-    }
-    if (used_pairs.empty()) {
-      spdlog::error("{}", DescribeUnusable(lidar.name, pairs, options.cost.min_points_per_scene));
-      return kExitFailure;
-    }
-    if (want_joint) {
-      Profile profile{"joint " + lidar.name, "base", {}};
-      spdlog::info("profiling {} ({} evaluations)", profile.name, evaluations);
-      sample([&](const Eigen::Isometry3d& T) { return EvaluateJoint(used_pairs, T); }, lidar.T_base_lidar,
-             targets.at(lidar.name), &profile);
-      append(profile);
-    }
-    if (want_pairs) {
-      for (const PairCost* pair : used_pairs) {
-        Profile profile{pair->Camera().name + "/" + lidar.name, pair->Camera().name, {}};
-        spdlog::info("profiling {} ({} evaluations)", profile.name, evaluations);
-        const Eigen::Isometry3d T_camera_base = pair->Camera().T_base_camera.inverse();
-        // --per-scene: every used scene's own cost along the same samples (one evaluation gives them all).
-        std::vector<std::size_t> used_scenes;
-        for (std::size_t s = 0; s < pair->States().size(); ++s) {
-          if (args.per_scene && pair->States()[s] == SceneState::kUsed) used_scenes.push_back(s);
-        }
-        std::vector<Profile> scene_profiles(used_scenes.size());
-        const auto cost = [&](const Eigen::Isometry3d& T) {
-          if (used_scenes.empty()) return pair->Evaluate(T);
-          const std::vector<SceneEvaluation> scenes = pair->EvaluateScenes(T);
-          double sum = 0.0;
-          for (std::size_t k = 0; k < used_scenes.size(); ++k) {
-            std::vector<double>& costs = scene_profiles[k].costs[static_cast<std::size_t>(current_dof)];
-            costs.push_back(scenes[used_scenes[k]].cost);
-            sum += costs.back();
-          }
-          return sum / static_cast<double>(used_scenes.size());
-        };
-        sample(cost, T_camera_base * lidar.T_base_lidar, T_camera_base * targets.at(lidar.name), &profile);
-        append(profile);
-        for (std::size_t k = 0; k < used_scenes.size(); ++k) {
-          scene_profiles[k].name = fmt::format("{} scene {}", profile.name, pair->Scenes()[used_scenes[k]].ImageTime());
-          scene_profiles[k].frame = profile.frame;
-          scene_profiles[k].in_summary = false;
-          append(scene_profiles[k]);
-        }
-      }
+// Profiles the lidar's joint cost and its pairs' costs (as --costs asks) from
+// its centre toward T_base_lidar_target; false (logged) when no pair has a
+// scene to score.
+bool ProfileLidar(const ProfileArguments& args, const CalibrationOptions& options, const CalibrationInput& input,
+                  const LidarInfo& lidar, const Eigen::Isometry3d& T_base_lidar_target, const DofSampler& sampler,
+                  ProfileTable* table) {
+  std::vector<std::unique_ptr<PairCost>> pairs;
+  std::vector<const PairCost*> used_pairs;
+  for (const CameraInfo& camera : input.rig.cameras) {
+    auto pair = std::make_unique<PairCost>(BuildPairCost(input, camera, lidar.name, options));
+    pair->SetImageBlur(args.blur_fraction);
+    const int used = pair->RefreshVisibility(camera.T_camera_base() * lidar.T_base_lidar);
+    spdlog::info("pair {}/{}: {} of {} scenes used at the centre", camera.name, lidar.name, used,
+                 pair->SceneCount());
+    if (used > 0) used_pairs.push_back(pair.get());
+    pairs.push_back(std::move(pair));
+  }
+  if (used_pairs.empty()) {
+    spdlog::error("{}", DescribeUnusable(lidar.name, pairs, options.cost.min_points_per_scene));
+    return false;
+  }
+  if (args.costs != "pairs") {
+    Profile profile{"joint " + lidar.name, "base", {}};
+    spdlog::info("profiling {} ({} evaluations)", profile.name, sampler.Evaluations());
+    sampler.Sample([&](const Eigen::Isometry3d& T, int) { return EvaluateJoint(used_pairs, T); }, lidar.T_base_lidar,
+                   T_base_lidar_target, &profile);
+    table->Append(profile, sampler);
+  }
+  if (args.costs != "joint") {
+    for (const PairCost* pair : used_pairs) {
+      ProfilePair(*pair, lidar, T_base_lidar_target, args.per_scene, sampler, table);
     }
   }
-  io::WriteFileAtomically(args.output, csv);
-  spdlog::info("wrote {} ({:.1f} s)", args.output,
-               std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  return true;
+}
 
-  // The summary: per profile and DoF, where the minimum lies and how much the cost rises over the range.
+// The summary: per profile and DoF, where the minimum lies and how much the cost rises over the range.
+void PrintSummary(const std::vector<Profile>& profiles, const DofSampler& sampler) {
   fmt::print("{:<22} {:>6} {:>6} {:>12} {:>12} {:>10}\n", "profile", "frame", "dof", "lowest", "fitted min",
              "rise");
   for (const Profile& profile : profiles) {
     if (!profile.in_summary) continue;
-    for (int dof = 0; dof < dofs; ++dof) {
-      const ProfileMinimum minimum = FindMinimum(offsets_of(dof), profile.costs[dof], std::max(2, samples / 8));
+    for (int dof = 0; dof < sampler.dofs(); ++dof) {
+      const ProfileMinimum minimum =
+          FindMinimum(sampler.Offsets(dof), profile.costs[dof], std::max(2, sampler.samples() / 8));
       const double scale = dof < 3 ? 100.0 : dof < kLine ? 180.0 / kPi : 1.0;
       const char* unit = dof < 3 ? "cm" : dof < kLine ? "deg" : "";
       fmt::print("{:<22} {:>6} {:>6} {:>+9.3f} {:<3}{:>+9.3f} {:<3}{:>10.6f}\n", profile.name, profile.frame,
@@ -330,6 +343,44 @@ int RunProfile(const ProfileArguments& args) {
                  minimum.rise);
     }
   }
+}
+
+int RunProfile(const ProfileArguments& args) {
+  const auto start = std::chrono::steady_clock::now();
+  io::CheckOutputFile(args.output, "--output");
+  CalibrationOptions options;
+  ApplyCostArguments(args.cost, &options);
+  std::string why;
+  if (!options.IsValid(&why)) {
+    spdlog::error("invalid options: {}", why);
+    return kExitInvalidInput;
+  }
+  const auto thread_limit = LimitThreads(args.threads);
+  std::string single_frame_defaults;
+  const io::Dataset dataset = OpenDatasetWithDefaults(args.dataset, args.cost, &options, &single_frame_defaults);
+
+  CalibrationInput input;
+  input.rig = dataset.rig;
+  std::map<std::string, Eigen::Isometry3d> targets;
+  std::vector<std::string> profiled;
+  if (const int exit_code = PlaceLidarsAtCentres(args, dataset, &input, &targets, &profiled);
+      exit_code != kExitSuccess) {
+    return exit_code;
+  }
+  const LoadedScenes loaded = SelectAndLoadScenes(dataset, options.scenes, &input, args.cost.ImageChannel());
+  spdlog::info("loaded {} lidar points in {:.2f} s", loaded.lidar_points,
+               std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+
+  const DofSampler sampler(args);
+  ProfileTable table;
+  for (const LidarInfo& lidar : input.rig.lidars) {
+    if (std::find(profiled.begin(), profiled.end(), lidar.name) == profiled.end()) continue;
+    if (!ProfileLidar(args, options, input, lidar, targets.at(lidar.name), sampler, &table)) return kExitFailure;
+  }
+  io::WriteFileAtomically(args.output, table.csv);
+  spdlog::info("wrote {} ({:.1f} s)", args.output,
+               std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  PrintSummary(table.profiles, sampler);
   return kExitSuccess;
 }
 
@@ -346,7 +397,9 @@ CommandRunner AddProfileCommand(CLI::App& app) {
       "rotations turn the lidar about its own origin (as in calibrate's error lines).\n"
       "CSV columns: profile (\"joint LIDAR\" or \"CAMERA/LIDAR\"), frame, dof (x y z roll pitch yaw), offset (m or\n"
       "deg), cost. Exit 1 when no scene can be scored; 2 for bad arguments or input data.");
-  command->add_option("dataset", args->dataset, "Dataset folder (docs/FORMAT.md)")->required()->check(CLI::ExistingDirectory);
+  command->add_option("dataset", args->dataset, "Dataset folder (docs/FORMAT.md)")
+      ->required()
+      ->check(CLI::ExistingDirectory);
   command->add_option("-o,--output", args->output, "CSV file of the sampled curves (written atomically)")->required();
   command->add_option("--at", args->at,
                       "Centre of the profiles: truth (ground_truth.yaml), guess (rig.yaml) or the path of a "

@@ -11,7 +11,10 @@
 
 namespace scenecal::cli {
 
-void AddCostOptions(CLI::App* command, CostArguments* args) {
+namespace {
+
+// The metric and which scans make up a scene (the frames, the swathe window).
+void AddSceneOptions(CLI::App* command, CostArguments* args) {
   command->add_option("--metric", args->metric, "nid (normalised information distance) or mi (mutual information)")
       ->check(CLI::IsMember({"nid", "mi"}))
       ->capture_default_str();
@@ -26,6 +29,10 @@ void AddCostOptions(CLI::App* command, CostArguments* args) {
                       "Swathe window: forward (the L m after the frame), backward (before), both (L m each side)")
       ->check(CLI::IsMember({"forward", "backward", "both"}))
       ->capture_default_str();
+}
+
+// The joint histogram and what the images and the reflectance contribute to it.
+void AddHistogramOptions(CLI::App* command, CostArguments* args) {
   args->bins_option =
       command
           ->add_option("--bins", args->bins,
@@ -68,6 +75,10 @@ void AddCostOptions(CLI::App* command, CostArguments* args) {
                       "for real street scenes with trees and hedges; colour images only)")
       ->check(CLI::IsMember({"grey", "exg"}))
       ->capture_default_str();
+}
+
+// Which scenes count and which of their scans are kept; the trajectory's scale.
+void AddScanSelectionOptions(CLI::App* command, CostArguments* args) {
   command->add_option("--min-points", args->min_points,
                       "Projected points a scene needs to count (scenes with fewer are ignored)")
       ->check(CLI::Range(1, 100000000))
@@ -91,11 +102,15 @@ void AddCostOptions(CLI::App* command, CostArguments* args) {
                       "(docs/findings.md, \"The drive's scale is invisible to the images\")")
       ->check(CLI::Range(-19.9, 19.9))
       ->capture_default_str();
+}
+
+// Which projected points are scored: the z-buffer occlusion test and the image border.
+void AddVisibilityOptions(CLI::App* command, CostArguments* args) {
   command->add_flag("--no-occlusion", args->no_occlusion, "Disable the z-buffer occlusion test");
   command->add_option("--occlusion-cell", args->occlusion_cell_px,
-                      "Z-buffer cell in pixels (a point is hidden when a point of its cell is nearer by the margin); 0 = "
-                      "image width / 80. Larger cells hide more of what is truly occluded between sparse points, but "
-                      "also the far part of a road seen at a grazing angle")
+                      "Z-buffer cell in pixels (a point is hidden when a point of its cell is nearer by the "
+                      "margin); 0 = image width / 80. Larger cells hide more of what is truly occluded between "
+                      "sparse points, but also the far part of a road seen at a grazing angle")
       ->check(kNonNegative)
       ->capture_default_str();
   command->add_option("--occlusion-margin", args->occlusion_relative_margin,
@@ -116,6 +131,10 @@ void AddCostOptions(CLI::App* command, CostArguments* args) {
                       "on two, with the simplex mixed (BENCHMARK.md)")
       ->check(kNonNegative)
       ->capture_default_str();
+}
+
+// Which lidar points are kept (range, thinning) and how a scene's points are split.
+void AddPointSelectionOptions(CLI::App* command, CostArguments* args) {
   command->add_option("--min-range", args->min_range_m,
                       "Lidar points nearer than this many metres to the lidar are dropped (the vehicle's body, "
                       "spray); must be below --max-range")
@@ -144,6 +163,16 @@ void AddCostOptions(CLI::App* command, CostArguments* args) {
                       "initial guess are dropped (keep it above the pixel motion the guess's error allows)")
       ->check(CLI::Range(0.0, 100000.0))
       ->capture_default_str();
+}
+
+}  // namespace
+
+void AddCostOptions(CLI::App* command, CostArguments* args) {
+  AddSceneOptions(command, args);
+  AddHistogramOptions(command, args);
+  AddScanSelectionOptions(command, args);
+  AddVisibilityOptions(command, args);
+  AddPointSelectionOptions(command, args);
 }
 
 io::ImageChannel CostArguments::ImageChannel() const {

@@ -58,6 +58,35 @@ bool SqrtInformation(const Matrix6d& information, Matrix6d* sqrt_information) {
   return true;
 }
 
+// Why the problem's shape cannot be solved ("" when it can).
+std::string ShapeError(const UpperLevelProblem& problem) {
+  const int camera_count = static_cast<int>(problem.cameras.size());
+  if (camera_count == 0) return "upper level: no cameras";
+  if (problem.base_camera < 0 || problem.base_camera >= camera_count) {
+    return "upper level: base camera index out of range";
+  }
+  if (!problem.T_camera_lidar_start.empty() &&
+      static_cast<int>(problem.T_camera_lidar_start.size()) != camera_count) {
+    return "upper level: start values do not match the cameras";
+  }
+  return "";
+}
+
+ceres::Solver::Options UpperLevelSolverOptions() {
+  ceres::Solver::Options options;
+  options.linear_solver_type = ceres::DENSE_QR;
+  options.max_num_iterations = 100;
+  options.function_tolerance = 1e-14;
+  // Ceres' gradient test is absolute: with a weak coupling penalty (a large
+  // --sigma0) the whole gradient is below any fixed bound at the start and the
+  // upper level would not move; the relative function and parameter tests end it.
+  options.gradient_tolerance = 0.0;
+  options.parameter_tolerance = 1e-12;
+  options.num_threads = 1;
+  options.logging_type = ceres::SILENT;
+  return options;
+}
+
 }  // namespace
 
 Matrix6d PenaltyInformation(double sigma_translation_m, double sigma_rotation_rad) {
@@ -70,19 +99,8 @@ Matrix6d PenaltyInformation(double sigma_translation_m, double sigma_rotation_ra
 UpperLevelSolution SolveUpperLevel(const UpperLevelProblem& problem) {
   UpperLevelSolution solution;
   const int camera_count = static_cast<int>(problem.cameras.size());
-  if (camera_count == 0) {
-    solution.message = "upper level: no cameras";
-    return solution;
-  }
-  if (problem.base_camera < 0 || problem.base_camera >= camera_count) {
-    solution.message = "upper level: base camera index out of range";
-    return solution;
-  }
-  if (!problem.T_camera_lidar_start.empty() &&
-      static_cast<int>(problem.T_camera_lidar_start.size()) != camera_count) {
-    solution.message = "upper level: start values do not match the cameras";
-    return solution;
-  }
+  solution.message = ShapeError(problem);
+  if (!solution.message.empty()) return solution;
 
   // One 6-vector block per camera with a soft constraint; hard ones share the base block.
   std::vector<Vector6d> deltas(static_cast<std::size_t>(camera_count), Vector6d::Zero());
@@ -135,17 +153,7 @@ UpperLevelSolution SolveUpperLevel(const UpperLevelProblem& problem) {
         deltas[static_cast<std::size_t>(problem.base_camera)].data(), deltas[static_cast<std::size_t>(p)].data());
   }
 
-  ceres::Solver::Options options;
-  options.linear_solver_type = ceres::DENSE_QR;
-  options.max_num_iterations = 100;
-  options.function_tolerance = 1e-14;
-  // Ceres' gradient test is absolute: with a weak coupling penalty (a large
-  // --sigma0) the whole gradient is below any fixed bound at the start and the
-  // upper level would not move; the relative function and parameter tests end it.
-  options.gradient_tolerance = 0.0;
-  options.parameter_tolerance = 1e-12;
-  options.num_threads = 1;
-  options.logging_type = ceres::SILENT;
+  ceres::Solver::Options options = UpperLevelSolverOptions();
   AbortWhenInterrupted abort_when_interrupted;
   options.callbacks.push_back(&abort_when_interrupted);
   ceres::Solver::Summary summary;

@@ -370,6 +370,130 @@ std::vector<double> Collect(const std::vector<ExperimentRun>& runs, const std::s
   return values;
 }
 
+// Summary per method: runs, successes, error and time statistics; and the settings.
+std::string ExperimentSummarySection(const ExperimentReportData& data, const std::vector<std::string>& methods) {
+  std::string out = "<section id=\"summary\">\n<h2>Summary</h2>\n";
+  if (!data.description.empty()) out += "<p>" + H(data.description) + "</p>\n";
+  if (methods.empty()) out += "<p class=\"note\">No runs.</p>\n";
+  else {
+    out += "<table>\n<tr><th class=\"text\">method</th><th>runs</th><th>succeeded</th>"
+           "<th>median |t err| (cm)</th><th>mean |t err| (cm)</th><th>max |t err| (cm)</th>"
+           "<th>median rot err (deg)</th><th>mean rot err (deg)</th><th>max rot err (deg)</th>"
+           "<th>median time (s)</th></tr>\n";
+    for (const std::string& method : methods) {
+      const std::vector<double> t =
+          Collect(data.runs, method, [](const ExperimentRun& r) { return r.translation_error_m * kCm; });
+      const std::vector<double> r =
+          Collect(data.runs, method, [](const ExperimentRun& run) { return run.rotation_error_deg; });
+      const std::vector<double> s = Collect(data.runs, method, [](const ExperimentRun& run) { return run.seconds; });
+      const auto runs = std::count_if(data.runs.begin(), data.runs.end(),
+                                      [&](const ExperimentRun& run) { return run.method == method; });
+      const auto stat = [](const std::vector<double>& v, int which) {
+        if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
+        if (which == 0) return ComputeBoxStatistics(v).median;
+        if (which == 1) return std::accumulate(v.begin(), v.end(), 0.0) / static_cast<double>(v.size());
+        return *std::max_element(v.begin(), v.end());
+      };
+      out += fmt::format("<tr><td class=\"text\">{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>"
+                         "<td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n",
+                         H(method), runs, t.size(), Num(stat(t, 0), 2), Num(stat(t, 1), 2), Num(stat(t, 2), 2),
+                         Num(stat(r, 0), 3), Num(stat(r, 1), 3), Num(stat(r, 2), 3), Num(stat(s, 0), 1));
+    }
+    out += "</table>\n<p class=\"note\">Errors are of T_base_lidar against the ground truth; failed runs are "
+           "counted but left out of the statistics.</p>\n";
+  }
+  out += SettingsDetails(data.settings);
+  out += "</section>\n";
+
+  return out;
+}
+
+// Fig. 7: box plots of translation and rotation error per method.
+std::string ErrorBoxPlotSection(const ExperimentReportData& data, const std::vector<std::string>& methods) {
+  std::string out = "<section id=\"box-plots\">\n<h2>Translation and rotation error per method (Fig. 7)</h2>\n";
+  if (methods.empty()) out += "<p class=\"note\">No runs.</p>\n";
+  else {
+    const int width = std::max(420, 90 * static_cast<int>(methods.size()) + 90);
+    BoxPlot translation{"Translation error |t_est - t_true|", "error (cm)", methods, {}, true, width, 300, false};
+    BoxPlot rotation{"Rotation error angle(R_est R_true^T)", "error (deg)", methods, {}, true, width, 300, false};
+    BoxSeries t_series{"all", PaletteColour(0), {}}, r_series{"all", PaletteColour(1), {}};
+    for (const std::string& method : methods) {
+      t_series.values_per_category.push_back(
+          Collect(data.runs, method, [](const ExperimentRun& r) { return r.translation_error_m * kCm; }));
+      r_series.values_per_category.push_back(
+          Collect(data.runs, method, [](const ExperimentRun& r) { return r.rotation_error_deg; }));
+    }
+    translation.series = {t_series};
+    rotation.series = {r_series};
+    out += Figure(SmallMultiples({RenderBoxPlot(translation), RenderBoxPlot(rotation)}, 2),
+                  "Boxes span the 25th to 75th percentiles, the line is the median, whiskers reach the most "
+                  "extreme runs within 1.5 IQR, circles are outliers.");
+  }
+  out += "</section>\n";
+
+  return out;
+}
+
+// Fig. 8: absolute error per DoF, methods side by side.
+std::string PerDofErrorSection(const ExperimentReportData& data, const std::vector<std::string>& methods) {
+  std::string out = "<section id=\"per-dof-errors\">\n<h2>Absolute error per degree of freedom (Fig. 8)</h2>\n";
+  std::vector<std::string> dof_methods;
+  for (const std::string& method : data.per_dof_methods.empty() ? methods : data.per_dof_methods)
+    if (std::find(methods.begin(), methods.end(), method) != methods.end()) dof_methods.push_back(method);
+  if (dof_methods.empty()) out += "<p class=\"note\">No runs for the selected methods.</p>\n";
+  else {
+    std::vector<std::string> panels;
+    for (int group = 0; group < 2; ++group) {
+      BoxPlot plot;
+      plot.title = group == 0 ? "Translation, per axis of T_base_lidar" : "Rotation, per angle of T_base_lidar";
+      plot.y_label = group == 0 ? "|error| (cm)" : "|error| (deg)";
+      plot.width_px = std::max(420, 60 * static_cast<int>(dof_methods.size()) * 3 + 120);
+      plot.height_px = 300;
+      for (int k = 3 * group; k < 3 * group + 3; ++k) plot.categories.push_back(kTupleNames[k]);
+      for (std::size_t m = 0; m < dof_methods.size(); ++m) {
+        BoxSeries series{dof_methods[m], PaletteColour(m), {}};
+        for (int k = 3 * group; k < 3 * group + 3; ++k) {
+          std::vector<double> values;
+          for (const ExperimentRun& run : data.runs)
+            if (run.method == dof_methods[m] && run.success) {
+              Vector6d error = run.error;
+              values.push_back(std::abs(TupleDisplay(error, k)));
+            }
+          series.values_per_category.push_back(std::move(values));
+        }
+        plot.series.push_back(std::move(series));
+      }
+      panels.push_back(RenderBoxPlot(plot));
+    }
+    out += Figure(SmallMultiples(panels, 2),
+                  "Absolute per-axis error |tuple(estimate) &minus; tuple(truth)| of T_base_lidar, "
+                  "x, y, z in the base frame; roll, pitch, yaw as in R = Rz Ry Rx.");
+  }
+  out += "</section>\n";
+
+  return out;
+}
+
+// All runs, one table row each.
+std::string RunsSection(const std::vector<ExperimentRun>& runs) {
+  std::string out = "<section id=\"runs\">\n<h2>Runs</h2>\n";
+  if (runs.empty()) out += "<p class=\"note\">No runs.</p>\n";
+  else {
+    out += "<details open><summary>" + std::to_string(runs.size()) + " runs</summary>\n<table>\n<tr>" +
+           TupleHeader("<th class=\"text\">method</th><th class=\"text\">lidar</th><th>trial</th>", " err") +
+           "<th>|t err| (cm)</th><th>rot err (deg)</th><th>time (s)</th><th class=\"text\">termination</th></tr>\n";
+    for (const ExperimentRun& run : runs)
+      out += fmt::format("<tr><td class=\"text\">{}</td><td class=\"text\">{}</td><td>{}</td>{}<td>{}</td><td>{}</td>"
+                         "<td>{}</td><td class=\"text\"><span class=\"{}\">{}</span> {}</td></tr>\n",
+                         H(run.method), H(run.lidar), run.trial, TupleCells(run.error),
+                         Num(run.translation_error_m * kCm, 2), Num(run.rotation_error_deg, 3), Num(run.seconds, 1),
+                         run.success ? "ok" : "bad", run.success ? "ok" : "failed", H(run.termination));
+    out += "</table></details>\n";
+  }
+  out += "</section>\n";
+  return out;
+}
+
 }  // namespace
 
 Vector6d TupleError(const Eigen::Isometry3d& estimate, const Eigen::Isometry3d& truth) {
@@ -425,7 +549,7 @@ CalibrationReportData MakeCalibrationReportData(const CalibrationOutcome& outcom
     row.final_cost = pair.cost;
     const CameraInfo* camera = rig.FindCamera(pair.camera);
     const LidarInfo* lidar = rig.FindLidar(pair.lidar);
-    if (camera && lidar) row.T_camera_lidar_initial = camera->T_base_camera.inverse() * lidar->T_base_lidar;
+    if (camera && lidar) row.T_camera_lidar_initial = camera->T_camera_base() * lidar->T_base_lidar;
     for (const PairReport& report : outcome.pairs) {
       if (report.camera != pair.camera || report.lidar != pair.lidar) continue;
       row.initial_cost = report.initial_cost;
@@ -558,113 +682,10 @@ std::string RenderExperimentReport(const ExperimentReportData& data) {
                               {"per-dof-errors", "Errors per DoF (Fig. 8)"},
                               {"runs", "Runs"},
                               {"overlays", "Overlays"}});
-
-  // Summary per method.
-  out += "<section id=\"summary\">\n<h2>Summary</h2>\n";
-  if (!data.description.empty()) out += "<p>" + H(data.description) + "</p>\n";
-  if (methods.empty()) out += "<p class=\"note\">No runs.</p>\n";
-  else {
-    out += "<table>\n<tr><th class=\"text\">method</th><th>runs</th><th>succeeded</th>"
-           "<th>median |t err| (cm)</th><th>mean |t err| (cm)</th><th>max |t err| (cm)</th>"
-           "<th>median rot err (deg)</th><th>mean rot err (deg)</th><th>max rot err (deg)</th>"
-           "<th>median time (s)</th></tr>\n";
-    for (const std::string& method : methods) {
-      const std::vector<double> t = Collect(data.runs, method, [](const ExperimentRun& r) { return r.translation_error_m * kCm; });
-      const std::vector<double> r = Collect(data.runs, method, [](const ExperimentRun& run) { return run.rotation_error_deg; });
-      const std::vector<double> s = Collect(data.runs, method, [](const ExperimentRun& run) { return run.seconds; });
-      const auto runs = std::count_if(data.runs.begin(), data.runs.end(),
-                                      [&](const ExperimentRun& run) { return run.method == method; });
-      const auto stat = [](const std::vector<double>& v, int which) {
-        if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
-        if (which == 0) return ComputeBoxStatistics(v).median;
-        if (which == 1) return std::accumulate(v.begin(), v.end(), 0.0) / static_cast<double>(v.size());
-        return *std::max_element(v.begin(), v.end());
-      };
-      out += fmt::format("<tr><td class=\"text\">{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>"
-                         "<td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n",
-                         H(method), runs, t.size(), Num(stat(t, 0), 2), Num(stat(t, 1), 2), Num(stat(t, 2), 2),
-                         Num(stat(r, 0), 3), Num(stat(r, 1), 3), Num(stat(r, 2), 3), Num(stat(s, 0), 1));
-    }
-    out += "</table>\n<p class=\"note\">Errors are of T_base_lidar against the ground truth; failed runs are "
-           "counted but left out of the statistics.</p>\n";
-  }
-  out += SettingsDetails(data.settings);
-  out += "</section>\n";
-
-  // Fig. 7: box plots of translation and rotation error per method.
-  out += "<section id=\"box-plots\">\n<h2>Translation and rotation error per method (Fig. 7)</h2>\n";
-  if (methods.empty()) out += "<p class=\"note\">No runs.</p>\n";
-  else {
-    const int width = std::max(420, 90 * static_cast<int>(methods.size()) + 90);
-    BoxPlot translation{"Translation error |t_est - t_true|", "error (cm)", methods, {}, true, width, 300, false};
-    BoxPlot rotation{"Rotation error angle(R_est R_true^T)", "error (deg)", methods, {}, true, width, 300, false};
-    BoxSeries t_series{"all", PaletteColour(0), {}}, r_series{"all", PaletteColour(1), {}};
-    for (const std::string& method : methods) {
-      t_series.values_per_category.push_back(
-          Collect(data.runs, method, [](const ExperimentRun& r) { return r.translation_error_m * kCm; }));
-      r_series.values_per_category.push_back(
-          Collect(data.runs, method, [](const ExperimentRun& r) { return r.rotation_error_deg; }));
-    }
-    translation.series = {t_series};
-    rotation.series = {r_series};
-    out += Figure(SmallMultiples({RenderBoxPlot(translation), RenderBoxPlot(rotation)}, 2),
-                  "Boxes span the 25th to 75th percentiles, the line is the median, whiskers reach the most "
-                  "extreme runs within 1.5 IQR, circles are outliers.");
-  }
-  out += "</section>\n";
-
-  // Fig. 8: absolute error per DoF, methods side by side.
-  out += "<section id=\"per-dof-errors\">\n<h2>Absolute error per degree of freedom (Fig. 8)</h2>\n";
-  std::vector<std::string> dof_methods;
-  for (const std::string& method : data.per_dof_methods.empty() ? methods : data.per_dof_methods)
-    if (std::find(methods.begin(), methods.end(), method) != methods.end()) dof_methods.push_back(method);
-  if (dof_methods.empty()) out += "<p class=\"note\">No runs for the selected methods.</p>\n";
-  else {
-    std::vector<std::string> panels;
-    for (int group = 0; group < 2; ++group) {
-      BoxPlot plot;
-      plot.title = group == 0 ? "Translation, per axis of T_base_lidar" : "Rotation, per angle of T_base_lidar";
-      plot.y_label = group == 0 ? "|error| (cm)" : "|error| (deg)";
-      plot.width_px = std::max(420, 60 * static_cast<int>(dof_methods.size()) * 3 + 120);
-      plot.height_px = 300;
-      for (int k = 3 * group; k < 3 * group + 3; ++k) plot.categories.push_back(kTupleNames[k]);
-      for (std::size_t m = 0; m < dof_methods.size(); ++m) {
-        BoxSeries series{dof_methods[m], PaletteColour(m), {}};
-        for (int k = 3 * group; k < 3 * group + 3; ++k) {
-          std::vector<double> values;
-          for (const ExperimentRun& run : data.runs)
-            if (run.method == dof_methods[m] && run.success) {
-              Vector6d error = run.error;
-              values.push_back(std::abs(TupleDisplay(error, k)));
-            }
-          series.values_per_category.push_back(std::move(values));
-        }
-        plot.series.push_back(std::move(series));
-      }
-      panels.push_back(RenderBoxPlot(plot));
-    }
-    out += Figure(SmallMultiples(panels, 2),
-                  "Absolute per-axis error |tuple(estimate) &minus; tuple(truth)| of T_base_lidar, "
-                  "x, y, z in the base frame; roll, pitch, yaw as in R = Rz Ry Rx.");
-  }
-  out += "</section>\n";
-
-  // All runs.
-  out += "<section id=\"runs\">\n<h2>Runs</h2>\n";
-  if (data.runs.empty()) out += "<p class=\"note\">No runs.</p>\n";
-  else {
-    out += "<details open><summary>" + std::to_string(data.runs.size()) + " runs</summary>\n<table>\n<tr>" +
-           TupleHeader("<th class=\"text\">method</th><th class=\"text\">lidar</th><th>trial</th>", " err") +
-           "<th>|t err| (cm)</th><th>rot err (deg)</th><th>time (s)</th><th class=\"text\">termination</th></tr>\n";
-    for (const ExperimentRun& run : data.runs)
-      out += fmt::format("<tr><td class=\"text\">{}</td><td class=\"text\">{}</td><td>{}</td>{}<td>{}</td><td>{}</td>"
-                         "<td>{}</td><td class=\"text\"><span class=\"{}\">{}</span> {}</td></tr>\n",
-                         H(run.method), H(run.lidar), run.trial, TupleCells(run.error),
-                         Num(run.translation_error_m * kCm, 2), Num(run.rotation_error_deg, 3), Num(run.seconds, 1),
-                         run.success ? "ok" : "bad", run.success ? "ok" : "failed", H(run.termination));
-    out += "</table></details>\n";
-  }
-  out += "</section>\n";
+  out += ExperimentSummarySection(data, methods);
+  out += ErrorBoxPlotSection(data, methods);
+  out += PerDofErrorSection(data, methods);
+  out += RunsSection(data.runs);
   out += OverlaySection(data.overlays);
   return out + PageClose();
 }

@@ -4,6 +4,8 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <optional>
+#include <vector>
 
 #include "sim/noise.hpp"
 
@@ -759,6 +761,265 @@ Shade AsphaltAt(std::uint64_t seed, double x, double y) {
   return {Material::kAsphalt, albedo, reflectivity};
 }
 
+// The decal a ground point lies on, of those listed for its grid cell: the
+// topmost (the last added) that covers it.
+struct DecalHit {
+  std::int64_t index = -1;  // into the world's decals; -1: none covers the point
+  double u = 0.0, v = 0.0;  // the point in the decal's frame (m)
+};
+
+DecalHit TopDecalAt(const std::vector<World::Decal>& decals, const std::vector<std::uint32_t>& cell_decals,
+                    std::uint32_t cell_begin, std::uint32_t cell_end, const Eigen::Vector3d& p) {
+  DecalHit hit;
+  for (std::uint32_t k = cell_begin; k < cell_end; ++k) {
+    const World::Decal& d = decals[cell_decals[k]];
+    const double ox = p.x() - d.cx, oy = p.y() - d.cy;
+    const double lu = ox * d.cos_yaw + oy * d.sin_yaw, lv = -ox * d.sin_yaw + oy * d.cos_yaw;
+    const bool inside = d.is_disc ? (lu * lu + lv * lv <= d.half_u * d.half_u)
+                                  : (std::abs(lu) <= d.half_u && std::abs(lv) <= d.half_v);
+    if (inside && static_cast<std::int64_t>(cell_decals[k]) > hit.index) {
+      hit.index = cell_decals[k];
+      hit.u = lu;
+      hit.v = lv;
+    }
+  }
+  return hit;
+}
+
+// A decal's look at ground point p, over the asphalt shade there; (du, dv) is
+// p in the decal's frame (m).
+Shade DecalShade(const World::Look& look, const World::Decal& d, const Eigen::Vector3d& p, double du, double dv,
+                 const Shade& asphalt) {
+  switch (look.material) {
+    case Material::kRoadPaint: {
+      // Worn paint shows the asphalt through; the paint's glass beads are retro-reflective.
+      const double cover = Clamp01(0.8 + 0.6 * Fbm2(look.seed, p.x() * 3.0, p.y() * 3.0, 2));
+      return {Material::kRoadPaint, Mix(asphalt.albedo, 0.72, cover), Mix(asphalt.reflectivity, 1.15, cover * cover)};
+    }
+    case Material::kPatchDark:
+      return {Material::kPatchDark, 0.075 * (1.0 + 0.2 * ValueNoise2(look.seed, p.x() * 8, p.y() * 8)),
+              0.05 + 0.03 * ValueNoise2(look.seed + 9, p.x() * 3, p.y() * 3)};
+    case Material::kPatchConcrete:
+      return {Material::kPatchConcrete, 0.3 * (1.0 + 0.15 * Fbm2(look.seed, p.x() * 2, p.y() * 2, 2)),
+              0.2 + 0.08 * ValueNoise2(look.seed + 9, p.x() * 2.5, p.y() * 2.5)};
+    case Material::kManhole: {
+      const bool raised = (static_cast<int>(std::floor(du / 0.05)) + static_cast<int>(std::floor(dv / 0.05))) % 2 == 0;
+      const bool rim = std::sqrt(du * du + dv * dv) > d.half_u - 0.04;
+      return {Material::kManhole, rim ? 0.25 : (raised ? 0.22 : 0.12), rim ? 0.35 : (raised ? 0.55 : 0.3)};
+    }
+    default:
+      return asphalt;
+  }
+}
+
+// A point on a box's face: its place in the box's frame and the texture
+// coordinates of the face.
+struct BoxFacePoint {
+  double lu = 0.0, lv = 0.0;       // horizontal, from the box centre along u and v (m)
+  double lz = 0.0;                 // height (m)
+  double tex_u = 0.0, tex_v = 0.0;  // on the face (m)
+  Eigen::Vector3d normal;          // world, unit, outwards
+};
+
+BoxFacePoint BoxFaceAt(const World::Box& b, int face_axis, double face_sign, const Eigen::Vector3d& p) {
+  BoxFacePoint face;
+  const double ox = p.x() - b.cx, oy = p.y() - b.cy;
+  face.lu = ox * b.cos_yaw + oy * b.sin_yaw;
+  face.lv = -ox * b.sin_yaw + oy * b.cos_yaw;
+  face.lz = p.z();
+  if (face_axis == 0) {
+    face.normal = Eigen::Vector3d(face_sign * b.cos_yaw, face_sign * b.sin_yaw, 0.0);
+    face.tex_u = face.lv;
+    face.tex_v = face.lz;
+  } else if (face_axis == 1) {
+    face.normal = Eigen::Vector3d(-face_sign * b.sin_yaw, face_sign * b.cos_yaw, 0.0);
+    face.tex_u = face.lu + b.u_offset;
+    face.tex_v = face.lz;
+  } else {
+    face.normal = Eigen::Vector3d(0.0, 0.0, face_sign);
+    face.tex_u = face.lu + b.u_offset;
+    face.tex_v = face.lv;
+  }
+  return face;
+}
+
+// Pavement slabs, with the kerb stones along the road edge.
+Shade PavingShade(const World::Look& look, const World::Box& b, int face_axis, const BoxFacePoint& face) {
+  const double a0 = look.albedo;
+  const double tex_u = face.tex_u, lv = face.lv, lz = face.lz;
+  const bool kerb_strip = face_axis != 2 || look.param * lv > b.half_v - 0.15;
+  if (kerb_strip) {
+    const double speckle = ValueNoise2(look.seed, tex_u * 40.0, (face_axis == 2 ? lv : lz) * 40.0);
+    const bool joint = Fract(tex_u / 0.9) < 0.012;
+    const double albedo = joint ? 0.12 : 0.38 + 0.08 * speckle;
+    return {Material::kKerb, albedo, joint ? 0.15 : 0.22 + 0.5 * std::pow(0.5 + 0.5 * speckle, 2.0)};
+  }
+  const double across = lv + b.half_v;
+  const double fu = Fract(tex_u / 0.6), fv = Fract(across / 0.6);
+  if (fu < 0.02 || fv < 0.02) return {Material::kPaving, 0.1, 0.16};
+  const auto iu = static_cast<std::int64_t>(std::floor(tex_u / 0.6));
+  const auto iv = static_cast<std::int64_t>(std::floor(across / 0.6));
+  const double h1 = HashUnit(look.seed, iu, iv), h2 = HashUnit(look.seed + 1, iu, iv);
+  const double albedo = a0 + 0.12 * (h1 - 0.5) + 0.04 * ValueNoise2(look.seed + 2, tex_u * 12, lv * 12) +
+                        0.05 * Fbm2(look.seed + 3, tex_u * 0.4, lv * 0.4, 2);
+  // Slabs from different batches: infrared only loosely tied to the visible shade.
+  return {Material::kPaving, albedo, 0.34 + 0.3 * (h2 - 0.5) + 0.6 * (albedo - a0)};
+}
+
+// A facade's door, plinth or window at (u along the face from the box
+// centre, lz up), m; nothing where the wall itself shows.
+std::optional<Shade> FacadeFeatureShade(const World::Look& look, const World::Box& b, const World::Facade& f, double u,
+                                        double lz) {
+  if (u >= f.door_u && u <= f.door_u + f.door_width && lz <= f.door_height) {
+    const bool frame = u < f.door_u + 0.08 || u > f.door_u + f.door_width - 0.08 || lz > f.door_height - 0.08;
+    const double door_albedo = 0.05 + 0.5 * HashUnit(look.seed, 5);
+    return frame ? Shade{Material::kWindowFrame, f.frame_albedo, f.frame_ir}
+                 : Shade{Material::kDoor, door_albedo + 0.03 * ValueNoise2(look.seed, u * 20, lz * 2),
+                         0.3 + 0.4 * HashUnit(look.seed, 6)};
+  }
+  if (lz < f.plinth_height) {
+    const double speckle = ValueNoise2(look.seed + 7, u * 25, lz * 25);
+    return Shade{Material::kStone, 0.3 + 0.06 * speckle, 0.42 + 0.1 * speckle};
+  }
+  const double floor_index = std::floor(lz / f.floor_height);
+  const double v_in = lz - floor_index * f.floor_height;
+  const double m = Fract((u - f.window_offset) / f.window_spacing) * f.window_spacing;
+  const bool near_door = floor_index == 0 && u > f.door_u - 0.5 && u < f.door_u + f.door_width + 0.5;
+  const bool in_window = !near_door && v_in >= f.sill_height && v_in <= f.sill_height + f.window_height &&
+                         m <= f.window_width && std::abs(u) < b.half_u - 0.4;
+  if (!in_window) return std::nullopt;
+  const double wv = v_in - f.sill_height;
+  const bool frame = m < 0.07 || m > f.window_width - 0.07 || wv < 0.07 || wv > f.window_height - 0.07 ||
+                     std::abs(m - 0.5 * f.window_width) < 0.03;
+  if (frame) return Shade{Material::kWindowFrame, f.frame_albedo, f.frame_ir};
+  // Reflections of the opposite street in the glass.
+  const double reflection = 0.5 + 0.5 * ValueNoise2(look.seed + 8, u * 0.8, lz * 1.5);
+  return Shade{Material::kGlass, 0.04 + 0.12 * reflection, 0.02};
+}
+
+// Brick courses and mortar at (u along the face from the box centre, lz up),
+// m, seen from `distance` m away.
+Shade BrickShade(const World::Look& look, const World::Box& b, double u, double lz, double distance) {
+  const double a0 = look.albedo;
+  const double course = std::floor(lz / 0.075);
+  const double offset = std::fmod(course, 2.0) * 0.1125;
+  const double bu = (u + b.u_offset + offset) / 0.225;
+  const bool mortar = Fract(bu) < 0.045 || Fract(lz / 0.075) < 0.13;
+  const Shade mortar_shade{Material::kBrick, 0.45, 0.28};
+  const auto bi = static_cast<std::int64_t>(std::floor(bu)), ci = static_cast<std::int64_t>(course);
+  const double h1 = HashUnit(look.seed, bi, ci), h2 = HashUnit(look.seed + 1, bi, ci);
+  const double soot = 0.5 + 0.5 * Fbm2(look.seed + 2, u * 0.3, lz * 0.3, 2);
+  const double albedo = a0 * (1.0 + 0.35 * (h1 - 0.5)) * (0.75 + 0.35 * soot);
+  // Fired clay is bright in the near infrared, brighter than its mortar.
+  const Shade brick_shade{Material::kBrick, albedo, look.ir_gain * (0.5 + 0.3 * (h2 - 0.5)) + 0.25 * (albedo - a0)};
+  Shade shade = mortar ? mortar_shade : brick_shade;
+  // Far away a pixel (or a lidar footprint) covers several joints: average the
+  // pattern (17 % mortar) instead of aliasing it into moire.
+  const double blend = std::clamp((distance * kPixelAngle - 0.004) / 0.012, 0.0, 1.0);
+  if (blend > 0.0) {
+    shade.albedo = Mix(shade.albedo, 0.83 * brick_shade.albedo + 0.17 * mortar_shade.albedo, blend);
+    shade.reflectivity =
+        Mix(shade.reflectivity, 0.83 * brick_shade.reflectivity + 0.17 * mortar_shade.reflectivity, blend);
+  }
+  return shade;
+}
+
+// Painted render at (u along the face from the box centre, lz up), m.
+Shade PlasterShade(const World::Look& look, double u, double lz) {
+  const double a0 = look.albedo;
+  const double stain = Fbm2(look.seed + 3, u * 0.5, lz * 0.5, 3);
+  const double albedo = a0 * (1.0 + 0.1 * stain + 0.03 * ValueNoise2(look.seed + 4, u * 15, lz * 15)) -
+                        0.06 * std::max(0.0, ValueNoise2(look.seed + 5, u * 2.0, lz * 0.15));
+  return {Material::kPlaster, albedo, look.ir_gain * (0.12 + 0.9 * albedo * albedo * albedo)};
+}
+
+// A brick or plaster building: stone roof; the facade's doors, plinth and
+// windows on the street side (face v); the wall elsewhere.
+Shade BuildingShade(const World::Look& look, const World::Box& b, const std::vector<World::Facade>& facades,
+                    int face_axis, const BoxFacePoint& face, double distance) {
+  if (face_axis == 2) return {Material::kStone, 0.1, 0.1};  // roof
+  const double u = face_axis == 1 ? face.lu : face.lv;  // along the face, from the box centre
+  if (face_axis == 1 && look.facade >= 0) {
+    const World::Facade& facade = facades[static_cast<std::size_t>(look.facade)];
+    if (const std::optional<Shade> feature = FacadeFeatureShade(look, b, facade, u, face.lz)) return *feature;
+  }
+  return look.material == Material::kBrick ? BrickShade(look, b, u, face.lz, distance)
+                                           : PlasterShade(look, u, face.lz);
+}
+
+// Tree crowns and hedges at world point p (3D noise: no face to texture).
+Shade FoliageAt(const World::Look& look, const Eigen::Vector3d& p) {
+  const double n1 = ValueNoise3(look.seed, p.x() * 3.5, p.y() * 3.5, p.z() * 3.5);
+  const double n2 = ValueNoise3(look.seed + 1, p.x() * 11, p.y() * 11, p.z() * 11);
+  double albedo = look.albedo + 0.05 * n1 + 0.03 * n2;
+  double reflectivity = look.ir_gain * (0.6 + 0.15 * ValueNoise3(look.seed + 2, p.x() * 2, p.y() * 2, p.z() * 2));
+  if (n1 < -0.5) {  // gaps between leaves
+    albedo *= 0.4;
+    reflectivity *= 0.5;
+  }
+  return {Material::kVegetation, albedo, reflectivity};
+}
+
+// The infrared noise texture coordinates (m) of foliage at world point p.
+void FoliageTexture(const Eigen::Vector3d& p, double* tex_u, double* tex_v) {
+  *tex_u = p.x() + p.z();
+  *tex_v = p.y() - p.z();
+}
+
+// A box face point's look by its material. Foliage has no face texture: its
+// texture coordinates in *face are replaced by FoliageTexture's.
+Shade BoxShade(const World::Look& look, const World::Box& b, const std::vector<World::Facade>& facades, int face_axis,
+               const Eigen::Vector3d& p, double distance, BoxFacePoint* face) {
+  const double a0 = look.albedo;
+  const double tex_u = face->tex_u, tex_v = face->tex_v, lu = face->lu, lv = face->lv, lz = face->lz;
+  switch (look.material) {
+    case Material::kPaving:
+      return PavingShade(look, b, face_axis, *face);
+    case Material::kBrick:
+    case Material::kPlaster:
+      return BuildingShade(look, b, facades, face_axis, *face, distance);
+    case Material::kGrass: {
+      if (face_axis != 2) return {Material::kStone, 0.3, 0.35};
+      const double n1 = ValueNoise2(look.seed, p.x() * 6, p.y() * 6);
+      return {Material::kGrass, 0.13 + 0.035 * n1 + 0.02 * ValueNoise2(look.seed + 1, p.x() * 25, p.y() * 25),
+              0.55 + 0.12 * ValueNoise2(look.seed + 2, p.x() * 2, p.y() * 2)};
+    }
+    case Material::kStone: {
+      const double speckle = ValueNoise2(look.seed, tex_u * 20, tex_v * 20);
+      const double block = HashUnit(look.seed, static_cast<std::int64_t>(std::floor(tex_u / 0.4)),
+                                    static_cast<std::int64_t>(std::floor(tex_v / 0.25)));
+      const double albedo = a0 * (0.8 + 0.4 * block) + 0.05 * speckle;
+      // Non-monotonic: mid-grey stone is the brightest in the infrared.
+      return {Material::kStone, albedo, 0.5 - 0.9 * std::abs(albedo - 0.33) + 0.05 * speckle};
+    }
+    case Material::kVegetation:
+      FoliageTexture(p, &face->tex_u, &face->tex_v);
+      return FoliageAt(look, p);
+    case Material::kMetal:
+      return {Material::kMetal, a0 * (1.0 + 0.1 * ValueNoise2(look.seed, tex_u * 5, tex_v * 5)), look.ir_gain * 0.35};
+    case Material::kSign: {
+      if (face_axis != 0) return {Material::kMetal, 0.3, 0.3};
+      const bool border = std::abs(lv) > b.half_v - 0.05 || lz < b.z0 + 0.05 || lz > b.z1 - 0.05;
+      return border ? Shade{Material::kSign, 0.8, 1.2} : Shade{Material::kSign, a0, 0.9 * look.ir_gain};
+    }
+    case Material::kCarPaint: {
+      if (lz < look.param + 0.16) return {Material::kTyre, 0.06, 0.08};  // bumper and sills
+      const double dirt = ValueNoise2(look.seed, tex_u * 3, tex_v * 3);
+      return {Material::kCarPaint, a0 * (1.0 + 0.06 * dirt), look.ir_gain * (0.2 + 0.25 * a0) + 0.02 * dirt};
+    }
+    case Material::kCarGlass: {
+      const bool pillar = face_axis == 2 || std::abs(lu) > b.half_u - 0.12;
+      return pillar ? Shade{Material::kCarPaint, a0, look.ir_gain * (0.2 + 0.25 * a0)}
+                    : Shade{Material::kCarGlass, 0.05 + 0.06 * (0.5 + 0.5 * ValueNoise2(look.seed, tex_u, tex_v * 3)),
+                            0.04};
+    }
+    case Material::kTyre:
+      return {Material::kTyre, 0.05, 0.07};
+    default:
+      return {look.material, a0, 0.3};
+  }
+}
+
 }  // namespace
 
 void World::Appearance(const Candidate& c, bool with_reflectivity, SurfaceHit* out) const {
@@ -767,11 +1028,6 @@ void World::Appearance(const Candidate& c, bool with_reflectivity, SurfaceHit* o
   // Texture coordinates (m) on the surface, for the infrared noise texture.
   double tex_u = p.x(), tex_v = p.y();
   std::uint64_t look_seed = seed_;
-  const auto box_local = [&](const Box& b, double* lu, double* lv) {
-    const double ox = p.x() - b.cx, oy = p.y() - b.cy;
-    *lu = ox * b.cos_yaw + oy * b.sin_yaw;
-    *lv = -ox * b.sin_yaw + oy * b.cos_yaw;
-  };
 
   if (c.kind == 3) {  // ground: asphalt, unless a decal covers the point
     out->normal = Eigen::Vector3d::UnitZ();
@@ -781,50 +1037,15 @@ void World::Appearance(const Candidate& c, bool with_reflectivity, SurfaceHit* o
     const int iy = static_cast<int>(std::floor((p.y() - grid_y0_) / cell_size_));
     if (ix >= 0 && ix < grid_nx_ && iy >= 0 && iy < grid_ny_) {
       const std::size_t cell = static_cast<std::size_t>(iy) * grid_nx_ + ix;
-      std::int64_t winner = -1;
-      double du = 0, dv = 0;
-      for (std::uint32_t k = cell_decal_begin_[cell]; k < cell_decal_begin_[cell + 1]; ++k) {
-        const Decal& d = decals_[cell_decals_[k]];
-        const double ox = p.x() - d.cx, oy = p.y() - d.cy;
-        const double lu = ox * d.cos_yaw + oy * d.sin_yaw, lv = -ox * d.sin_yaw + oy * d.cos_yaw;
-        const bool inside = d.is_disc ? (lu * lu + lv * lv <= d.half_u * d.half_u)
-                                      : (std::abs(lu) <= d.half_u && std::abs(lv) <= d.half_v);
-        if (inside && static_cast<std::int64_t>(cell_decals_[k]) > winner) {
-          winner = cell_decals_[k];
-          du = lu;
-          dv = lv;
-        }
-      }
-      if (winner >= 0) {
-        const Decal& d = decals_[static_cast<std::size_t>(winner)];
+      const DecalHit decal =
+          TopDecalAt(decals_, cell_decals_, cell_decal_begin_[cell], cell_decal_begin_[cell + 1], p);
+      if (decal.index >= 0) {
+        const Decal& d = decals_[static_cast<std::size_t>(decal.index)];
         const Look& look = looks_[d.look];
-        out->object = static_cast<std::uint32_t>(1 + boxes_.size() + cylinders_.size() + spheres_.size() + winner);
+        out->object =
+            static_cast<std::uint32_t>(1 + boxes_.size() + cylinders_.size() + spheres_.size() + decal.index);
         look_seed = look.seed;
-        switch (look.material) {
-          case Material::kRoadPaint: {
-            // Worn paint shows the asphalt through; the paint's glass beads are retro-reflective.
-            const double cover = Clamp01(0.8 + 0.6 * Fbm2(look.seed, p.x() * 3.0, p.y() * 3.0, 2));
-            shade = {Material::kRoadPaint, Mix(shade.albedo, 0.72, cover),
-                     Mix(shade.reflectivity, 1.15, cover * cover)};
-            break;
-          }
-          case Material::kPatchDark:
-            shade = {Material::kPatchDark, 0.075 * (1.0 + 0.2 * ValueNoise2(look.seed, p.x() * 8, p.y() * 8)),
-                     0.05 + 0.03 * ValueNoise2(look.seed + 9, p.x() * 3, p.y() * 3)};
-            break;
-          case Material::kPatchConcrete:
-            shade = {Material::kPatchConcrete, 0.3 * (1.0 + 0.15 * Fbm2(look.seed, p.x() * 2, p.y() * 2, 2)),
-                     0.2 + 0.08 * ValueNoise2(look.seed + 9, p.x() * 2.5, p.y() * 2.5)};
-            break;
-          case Material::kManhole: {
-            const bool raised = (static_cast<int>(std::floor(du / 0.05)) + static_cast<int>(std::floor(dv / 0.05))) % 2 == 0;
-            const bool rim = std::sqrt(du * du + dv * dv) > d.half_u - 0.04;
-            shade = {Material::kManhole, rim ? 0.25 : (raised ? 0.22 : 0.12), rim ? 0.35 : (raised ? 0.55 : 0.3)};
-            break;
-          }
-          default:
-            break;
-        }
+        shade = DecalShade(look, d, p, decal.u, decal.v, shade);
       }
     }
   } else if (c.kind == 0) {
@@ -832,193 +1053,11 @@ void World::Appearance(const Candidate& c, bool with_reflectivity, SurfaceHit* o
     const Look& look = looks_[b.look];
     look_seed = look.seed;
     out->object = 1 + c.index;
-    double lu = 0, lv = 0;
-    box_local(b, &lu, &lv);
-    const double lz = p.z();
-    if (c.face_axis == 0) {
-      out->normal = Eigen::Vector3d(c.face_sign * b.cos_yaw, c.face_sign * b.sin_yaw, 0.0);
-      tex_u = lv;
-      tex_v = lz;
-    } else if (c.face_axis == 1) {
-      out->normal = Eigen::Vector3d(-c.face_sign * b.sin_yaw, c.face_sign * b.cos_yaw, 0.0);
-      tex_u = lu + b.u_offset;
-      tex_v = lz;
-    } else {
-      out->normal = Eigen::Vector3d(0.0, 0.0, c.face_sign);
-      tex_u = lu + b.u_offset;
-      tex_v = lv;
-    }
-    const double a0 = look.albedo;
-    switch (look.material) {
-      case Material::kPaving: {
-        const bool kerb_strip = c.face_axis != 2 || look.param * lv > b.half_v - 0.15;
-        if (kerb_strip) {
-          const double speckle = ValueNoise2(look.seed, tex_u * 40.0, (c.face_axis == 2 ? lv : lz) * 40.0);
-          const bool joint = Fract(tex_u / 0.9) < 0.012;
-          const double albedo = joint ? 0.12 : 0.38 + 0.08 * speckle;
-          shade = {Material::kKerb, albedo, joint ? 0.15 : 0.22 + 0.5 * std::pow(0.5 + 0.5 * speckle, 2.0)};
-        } else {
-          const double across = lv + b.half_v;
-          const double fu = Fract(tex_u / 0.6), fv = Fract(across / 0.6);
-          if (fu < 0.02 || fv < 0.02) {
-            shade = {Material::kPaving, 0.1, 0.16};
-          } else {
-            const auto iu = static_cast<std::int64_t>(std::floor(tex_u / 0.6));
-            const auto iv = static_cast<std::int64_t>(std::floor(across / 0.6));
-            const double h1 = HashUnit(look.seed, iu, iv), h2 = HashUnit(look.seed + 1, iu, iv);
-            const double albedo = a0 + 0.12 * (h1 - 0.5) + 0.04 * ValueNoise2(look.seed + 2, tex_u * 12, lv * 12) +
-                                  0.05 * Fbm2(look.seed + 3, tex_u * 0.4, lv * 0.4, 2);
-            // Slabs from different batches: infrared only loosely tied to the visible shade.
-            shade = {Material::kPaving, albedo, 0.34 + 0.3 * (h2 - 0.5) + 0.6 * (albedo - a0)};
-          }
-        }
-        break;
-      }
-      case Material::kBrick:
-      case Material::kPlaster: {
-        const bool brick = look.material == Material::kBrick;
-        if (c.face_axis == 2) {  // roof
-          shade = {Material::kStone, 0.1, 0.1};
-          break;
-        }
-        const Facade* facade = (c.face_axis == 1 && look.facade >= 0) ? &facades_[static_cast<std::size_t>(look.facade)] : nullptr;
-        const double u = c.face_axis == 1 ? lu : lv;  // along the face, from the box centre
-        bool done = false;
-        if (facade) {
-          const Facade& f = *facade;
-          if (u >= f.door_u && u <= f.door_u + f.door_width && lz <= f.door_height) {
-            const bool frame = u < f.door_u + 0.08 || u > f.door_u + f.door_width - 0.08 || lz > f.door_height - 0.08;
-            const double door_albedo = 0.05 + 0.5 * HashUnit(look.seed, 5);
-            shade = frame ? Shade{Material::kWindowFrame, f.frame_albedo, f.frame_ir}
-                          : Shade{Material::kDoor, door_albedo + 0.03 * ValueNoise2(look.seed, u * 20, lz * 2),
-                                  0.3 + 0.4 * HashUnit(look.seed, 6)};
-            done = true;
-          } else if (lz < f.plinth_height) {
-            const double speckle = ValueNoise2(look.seed + 7, u * 25, lz * 25);
-            shade = {Material::kStone, 0.3 + 0.06 * speckle, 0.42 + 0.1 * speckle};
-            done = true;
-          } else {
-            const double floor_index = std::floor(lz / f.floor_height);
-            const double v_in = lz - floor_index * f.floor_height;
-            const double m = Fract((u - f.window_offset) / f.window_spacing) * f.window_spacing;
-            const bool near_door = floor_index == 0 && u > f.door_u - 0.5 && u < f.door_u + f.door_width + 0.5;
-            if (!near_door && v_in >= f.sill_height && v_in <= f.sill_height + f.window_height && m <= f.window_width &&
-                std::abs(u) < b.half_u - 0.4) {
-              const double wv = v_in - f.sill_height;
-              const bool frame = m < 0.07 || m > f.window_width - 0.07 || wv < 0.07 || wv > f.window_height - 0.07 ||
-                                 std::abs(m - 0.5 * f.window_width) < 0.03;
-              if (frame) {
-                shade = {Material::kWindowFrame, f.frame_albedo, f.frame_ir};
-              } else {
-                // Reflections of the opposite street in the glass.
-                const double reflection = 0.5 + 0.5 * ValueNoise2(look.seed + 8, u * 0.8, lz * 1.5);
-                shade = {Material::kGlass, 0.04 + 0.12 * reflection, 0.02};
-              }
-              done = true;
-            }
-          }
-        }
-        if (!done) {
-          if (brick) {
-            const double course = std::floor(lz / 0.075);
-            const double offset = std::fmod(course, 2.0) * 0.1125;
-            const double bu = (u + b.u_offset + offset) / 0.225;
-            const bool mortar = Fract(bu) < 0.045 || Fract(lz / 0.075) < 0.13;
-            const Shade mortar_shade{Material::kBrick, 0.45, 0.28};
-            const auto bi = static_cast<std::int64_t>(std::floor(bu)), ci = static_cast<std::int64_t>(course);
-            const double h1 = HashUnit(look.seed, bi, ci), h2 = HashUnit(look.seed + 1, bi, ci);
-            const double soot = 0.5 + 0.5 * Fbm2(look.seed + 2, u * 0.3, lz * 0.3, 2);
-            const double albedo = a0 * (1.0 + 0.35 * (h1 - 0.5)) * (0.75 + 0.35 * soot);
-            // Fired clay is bright in the near infrared, brighter than its mortar.
-            const Shade brick_shade{Material::kBrick, albedo,
-                                    look.ir_gain * (0.5 + 0.3 * (h2 - 0.5)) + 0.25 * (albedo - a0)};
-            shade = mortar ? mortar_shade : brick_shade;
-            // Far away a pixel (or a lidar footprint) covers several joints: average the
-            // pattern (17 % mortar) instead of aliasing it into moire.
-            const double blend = std::clamp((out->distance * kPixelAngle - 0.004) / 0.012, 0.0, 1.0);
-            if (blend > 0.0) {
-              shade.albedo = Mix(shade.albedo, 0.83 * brick_shade.albedo + 0.17 * mortar_shade.albedo, blend);
-              shade.reflectivity =
-                  Mix(shade.reflectivity, 0.83 * brick_shade.reflectivity + 0.17 * mortar_shade.reflectivity, blend);
-            }
-          } else {
-            const double stain = Fbm2(look.seed + 3, u * 0.5, lz * 0.5, 3);
-            const double albedo = a0 * (1.0 + 0.1 * stain + 0.03 * ValueNoise2(look.seed + 4, u * 15, lz * 15)) -
-                                  0.06 * std::max(0.0, ValueNoise2(look.seed + 5, u * 2.0, lz * 0.15));
-            shade = {Material::kPlaster, albedo, look.ir_gain * (0.12 + 0.9 * albedo * albedo * albedo)};
-          }
-        }
-        break;
-      }
-      case Material::kGrass: {
-        if (c.face_axis != 2) {
-          shade = {Material::kStone, 0.3, 0.35};
-          break;
-        }
-        const double n1 = ValueNoise2(look.seed, p.x() * 6, p.y() * 6);
-        shade = {Material::kGrass, 0.13 + 0.035 * n1 + 0.02 * ValueNoise2(look.seed + 1, p.x() * 25, p.y() * 25),
-                 0.55 + 0.12 * ValueNoise2(look.seed + 2, p.x() * 2, p.y() * 2)};
-        break;
-      }
-      case Material::kStone: {
-        const double speckle = ValueNoise2(look.seed, tex_u * 20, tex_v * 20);
-        const double block = HashUnit(look.seed, static_cast<std::int64_t>(std::floor(tex_u / 0.4)),
-                                      static_cast<std::int64_t>(std::floor(tex_v / 0.25)));
-        const double albedo = a0 * (0.8 + 0.4 * block) + 0.05 * speckle;
-        // Non-monotonic: mid-grey stone is the brightest in the infrared.
-        shade = {Material::kStone, albedo, 0.5 - 0.9 * std::abs(albedo - 0.33) + 0.05 * speckle};
-        break;
-      }
-      case Material::kVegetation: {
-        const double n1 = ValueNoise3(look.seed, p.x() * 3.5, p.y() * 3.5, p.z() * 3.5);
-        const double n2 = ValueNoise3(look.seed + 1, p.x() * 11, p.y() * 11, p.z() * 11);
-        double albedo = a0 + 0.05 * n1 + 0.03 * n2;
-        double reflectivity = look.ir_gain * (0.6 + 0.15 * ValueNoise3(look.seed + 2, p.x() * 2, p.y() * 2, p.z() * 2));
-        if (n1 < -0.5) {  // gaps between leaves
-          albedo *= 0.4;
-          reflectivity *= 0.5;
-        }
-        shade = {Material::kVegetation, albedo, reflectivity};
-        tex_u = p.x() + p.z();
-        tex_v = p.y() - p.z();
-        break;
-      }
-      case Material::kMetal:
-        shade = {Material::kMetal, a0 * (1.0 + 0.1 * ValueNoise2(look.seed, tex_u * 5, tex_v * 5)),
-                 look.ir_gain * 0.35};
-        break;
-      case Material::kSign: {
-        if (c.face_axis != 0) {
-          shade = {Material::kMetal, 0.3, 0.3};
-          break;
-        }
-        const bool border = std::abs(lv) > b.half_v - 0.05 || lz < b.z0 + 0.05 || lz > b.z1 - 0.05;
-        shade = border ? Shade{Material::kSign, 0.8, 1.2} : Shade{Material::kSign, a0, 0.9 * look.ir_gain};
-        break;
-      }
-      case Material::kCarPaint: {
-        if (lz < look.param + 0.16) {  // bumper and sills
-          shade = {Material::kTyre, 0.06, 0.08};
-        } else {
-          const double dirt = ValueNoise2(look.seed, tex_u * 3, tex_v * 3);
-          shade = {Material::kCarPaint, a0 * (1.0 + 0.06 * dirt), look.ir_gain * (0.2 + 0.25 * a0) + 0.02 * dirt};
-        }
-        break;
-      }
-      case Material::kCarGlass: {
-        const bool pillar = c.face_axis == 2 || std::abs(lu) > b.half_u - 0.12;
-        shade = pillar ? Shade{Material::kCarPaint, a0, look.ir_gain * (0.2 + 0.25 * a0)}
-                       : Shade{Material::kCarGlass, 0.05 + 0.06 * (0.5 + 0.5 * ValueNoise2(look.seed, tex_u, tex_v * 3)),
-                               0.04};
-        break;
-      }
-      case Material::kTyre:
-        shade = {Material::kTyre, 0.05, 0.07};
-        break;
-      default:
-        shade = {look.material, a0, 0.3};
-        break;
-    }
+    BoxFacePoint face = BoxFaceAt(b, c.face_axis, c.face_sign, p);
+    out->normal = face.normal;
+    shade = BoxShade(look, b, facades_, c.face_axis, p, out->distance, &face);
+    tex_u = face.tex_u;
+    tex_v = face.tex_v;
   } else if (c.kind == 1) {
     const Cylinder& cyl = cylinders_[c.index];
     const Look& look = looks_[cyl.look];
@@ -1044,17 +1083,8 @@ void World::Appearance(const Candidate& c, bool with_reflectivity, SurfaceHit* o
     look_seed = look.seed;
     out->object = static_cast<std::uint32_t>(1 + boxes_.size() + cylinders_.size() + c.index);
     out->normal = Eigen::Vector3d(p.x() - s.cx, p.y() - s.cy, p.z() - s.cz) / s.radius;
-    const double n1 = ValueNoise3(look.seed, p.x() * 3.5, p.y() * 3.5, p.z() * 3.5);
-    const double n2 = ValueNoise3(look.seed + 1, p.x() * 11, p.y() * 11, p.z() * 11);
-    double albedo = look.albedo + 0.05 * n1 + 0.03 * n2;
-    double reflectivity = look.ir_gain * (0.6 + 0.15 * ValueNoise3(look.seed + 2, p.x() * 2, p.y() * 2, p.z() * 2));
-    if (n1 < -0.5) {
-      albedo *= 0.4;
-      reflectivity *= 0.5;
-    }
-    shade = {Material::kVegetation, albedo, reflectivity};
-    tex_u = p.x() + p.z();
-    tex_v = p.y() - p.z();
+    shade = FoliageAt(look, p);
+    FoliageTexture(p, &tex_u, &tex_v);
   }
   // A separate infrared noise texture, independent of the visible texture.
   out->material = shade.material;
