@@ -27,6 +27,7 @@
 #include "cli/setting.hpp"
 #include "cli/uncertainty_report.hpp"
 #include "cli/validators.hpp"
+#include "cli/warning_advice.hpp"
 #include "core/calibrator.hpp"
 #include "core/geometry.hpp"
 #include "core/interrupt.hpp"
@@ -136,24 +137,18 @@ std::string ErrorLine(const Eigen::Isometry3d& estimate, const Eigen::Isometry3d
       drpy.y(), drpy.z());
 }
 
-int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
-  const auto start = std::chrono::steady_clock::now();
-  // Before any work: a result that could not be written would waste the run.
-  // Only rank 0 writes, and other hosts need not have its output folder.
-  if (group.IsRoot()) {
-    io::CheckOutputFile(args.output, "--output");
-    if (!args.report_dir.empty()) io::CheckOutputFolderWritable(args.report_dir, "--report");
-  }
-  CalibrationOptions options;
+// The calibration's options from the command line; kExitInvalidInput (logged)
+// when they do not fit together.
+int MakeCalibrationOptions(const CalibrateArguments& args, CalibrationOptions* options) {
   // Arguments already checked by CLI11 validators; parse into the enums.
-  ParseCalibrationScheme(args.scheme, &options.scheme);
-  ApplyCostArguments(args.cost, &options);
-  ApplyMotionCorrectionArguments(args.motion, &options);
-  ParseLowerSolver(args.lower_solver, &options.lower_solver);
-  if (options.lower_solver == LowerSolver::kLbfgs) {
+  ParseCalibrationScheme(args.scheme, &options->scheme);
+  ApplyCostArguments(args.cost, options);
+  ApplyMotionCorrectionArguments(args.motion, options);
+  ParseLowerSolver(args.lower_solver, &options->lower_solver);
+  if (options->lower_solver == LowerSolver::kLbfgs) {
     if (!args.cost.BinningGiven()) {
-      options.cost.histogram.binning = Binning::kBSpline;  // gradients need it; recorded in the result's settings
-    } else if (options.cost.histogram.binning != Binning::kBSpline) {
+      options->cost.histogram.binning = Binning::kBSpline;  // gradients need it; recorded in the result's settings
+    } else if (options->cost.histogram.binning != Binning::kBSpline) {
       spdlog::error("--lower-solver lbfgs{} needs --binning bspline: with --binning {} the cost is piecewise constant "
                     "and has no gradient (use --lower-solver simplex for hard binning)",
                     GivenOnCommandLine(args.command, "--lower-solver") ? "" : " (from --setting " + args.setting + ")",
@@ -161,85 +156,99 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
       return kExitInvalidInput;
     }
   }
-  options.pivot_at_observed_centroid = args.rotation_pivot == "centroid";
-  options.nelder_mead.max_iterations = args.max_iterations;
-  options.nelder_mead.initial_step_translation_m = args.step_translation_m;
-  options.nelder_mead.initial_step_rotation_rad = RadiansFromDegrees(args.step_rotation_deg);
-  options.gradient.max_iterations = args.lbfgs_iterations;
-  options.gradient.initial_step_translation_m = args.step_translation_m;
-  options.gradient.initial_step_rotation_rad = RadiansFromDegrees(args.step_rotation_deg);
-  if (!ParseStageSchedule(args.stages, &options.stages)) {
+  options->pivot_at_observed_centroid = args.rotation_pivot == "centroid";
+  options->nelder_mead.max_iterations = args.max_iterations;
+  options->nelder_mead.initial_step_translation_m = args.step_translation_m;
+  options->nelder_mead.initial_step_rotation_rad = RadiansFromDegrees(args.step_rotation_deg);
+  options->gradient.max_iterations = args.lbfgs_iterations;
+  options->gradient.initial_step_translation_m = args.step_translation_m;
+  options->gradient.initial_step_rotation_rad = RadiansFromDegrees(args.step_rotation_deg);
+  if (!ParseStageSchedule(args.stages, &options->stages)) {
     spdlog::error("--stages: expected comma-separated SCALE[:BLUR[:RESTARTS]] entries, got '{}'", args.stages);
     return kExitInvalidInput;
   }
-  options.threads = args.threads;
-  options.seed = args.seed;
-  options.time_budget_s = args.time_budget_s;
-  args.alternating.ApplyTo(&options.alternating);
+  options->threads = args.threads;
+  options->seed = args.seed;
+  options->time_budget_s = args.time_budget_s;
+  args.alternating.ApplyTo(&options->alternating);
   std::string why;
-  if (!options.IsValid(&why)) {
+  if (!options->IsValid(&why)) {
     spdlog::error("invalid options: {}", why);
     return kExitInvalidInput;
   }
-  if (args.alternating.backend == "mpi" && options.scheme != CalibrationScheme::kAlt) {
+  if (args.alternating.backend == "mpi" && options->scheme != CalibrationScheme::kAlt) {
     spdlog::error("--backend mpi distributes the lower levels of --scheme alt; it does not apply to --scheme {}",
                   args.scheme);
     return kExitInvalidInput;
   }
-  const auto thread_limit = LimitThreads(args.threads);
-  std::string single_frame_defaults;
-  const io::Dataset dataset = OpenDatasetWithDefaults(args.dataset, args.cost, &options, &single_frame_defaults);
-  std::vector<std::string> setting_words = args.setting_words;
-  if (!args.setting.empty()) {
-    const std::string misfit = SettingMisfit(dataset.rig, dataset.trajectory.size());
-    if (!misfit.empty()) {
-      spdlog::error("--setting {} on {}: {}", args.setting, args.dataset, misfit);
-      return kExitInvalidInput;
-    }
-    if (const auto border = SettingRefreshBorder(args, dataset.rig)) {
-      options.cost.swathe.refresh_border_px = *border;
-      setting_words.push_back(fmt::format("--refresh-border {:g}", *border));
-    }
-    spdlog::info("--setting {}: {}", args.setting, fmt::join(setting_words, " "));  // what the result records
-  }
+  return kExitSuccess;
+}
 
-  CalibrationInput input;
-  input.rig = dataset.rig;
+// --setting on the opened dataset: whether it fits the data, and its
+// --refresh-border for these images (added to *setting_words); logs what the
+// setting set. kExitInvalidInput (logged) when it does not fit.
+int ApplySettingToDataset(const CalibrateArguments& args, const io::Dataset& dataset, CalibrationOptions* options,
+                          std::vector<std::string>* setting_words) {
+  if (args.setting.empty()) return kExitSuccess;
+  const std::string misfit = SettingMisfit(dataset.rig, dataset.trajectory.size());
+  if (!misfit.empty()) {
+    spdlog::error("--setting {} on {}: {}", args.setting, args.dataset, misfit);
+    return kExitInvalidInput;
+  }
+  if (const auto border = SettingRefreshBorder(args, dataset.rig)) {
+    options->cost.swathe.refresh_border_px = *border;
+    setting_words->push_back(fmt::format("--refresh-border {:g}", *border));
+  }
+  spdlog::info("--setting {}: {}", args.setting, fmt::join(*setting_words, " "));  // what the result records
+  return kExitSuccess;
+}
+
+bool PerturbsInitialGuesses(const CalibrateArguments& args) {
+  return args.perturb_translation_m > 0.0 || args.perturb_rotation_deg > 0.0 || args.perturb_from_truth;
+}
+
+// --perturb-*: moves each lidar's initial guess in *rig (rig.yaml's, or with
+// --perturb-from-truth the truth) by exactly the given magnitudes in random
+// directions from --seed. kExitInvalidInput (logged) without the truth asked for.
+int PerturbInitialGuesses(const CalibrateArguments& args, const io::Dataset& dataset, Rig* rig) {
   if (args.perturb_from_truth && !dataset.ground_truth) {
     spdlog::error("--perturb-from-truth needs ground_truth.yaml in {}", args.dataset);
     return kExitInvalidInput;
   }
-  if (args.perturb_translation_m > 0.0 || args.perturb_rotation_deg > 0.0 || args.perturb_from_truth) {
-    std::mt19937_64 rng(args.seed);
-    for (LidarInfo& lidar : input.rig.lidars) {
-      Eigen::Isometry3d base_guess = lidar.T_base_lidar;
-      if (args.perturb_from_truth) {
-        const auto truth = dataset.ground_truth->T_base_lidar.find(lidar.name);
-        if (truth == dataset.ground_truth->T_base_lidar.end()) {
-          spdlog::error("--perturb-from-truth: ground_truth.yaml has no T_base_lidar for lidar {}", lidar.name);
-          return kExitInvalidInput;
-        }
-        base_guess = truth->second;
+  if (!PerturbsInitialGuesses(args)) return kExitSuccess;
+  std::mt19937_64 rng(args.seed);
+  for (LidarInfo& lidar : rig->lidars) {
+    Eigen::Isometry3d base_guess = lidar.T_base_lidar;
+    if (args.perturb_from_truth) {
+      const auto truth = dataset.ground_truth->T_base_lidar.find(lidar.name);
+      if (truth == dataset.ground_truth->T_base_lidar.end()) {
+        spdlog::error("--perturb-from-truth: ground_truth.yaml has no T_base_lidar for lidar {}", lidar.name);
+        return kExitInvalidInput;
       }
-      lidar.T_base_lidar = PerturbExactly(base_guess, args.perturb_translation_m, args.perturb_rotation_deg, rng);
-      spdlog::info("lidar {}: initial guess = {} moved by {} m and {} deg (seed {})", lidar.name,
-                   args.perturb_from_truth ? "the truth" : "rig.yaml's guess", args.perturb_translation_m,
-                   args.perturb_rotation_deg, args.seed);
+      base_guess = truth->second;
     }
+    lidar.T_base_lidar = PerturbExactly(base_guess, args.perturb_translation_m, args.perturb_rotation_deg, rng);
+    spdlog::info("lidar {}: initial guess = {} moved by {} m and {} deg (seed {})", lidar.name,
+                 args.perturb_from_truth ? "the truth" : "rig.yaml's guess", args.perturb_translation_m,
+                 args.perturb_rotation_deg, args.seed);
   }
-  const LoadedScenes loaded = SelectAndLoadScenes(dataset, options.scenes, &input, args.cost.ImageChannel());
-  const double load_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  spdlog::info("loaded {} lidar points in {:.2f} s", loaded.lidar_points, load_s);
+  return kExitSuccess;
+}
 
-  const bool has_push_broom = input.rig.HasPushBroomLidar();
+// What the benchmarks found for push-broom lidars and for drift corrections
+// per lidar, where the options given may not be the best.
+void LogAdviceForRig(const CalibrateArguments& args, const CalibrationOptions& options, const Rig& rig) {
+  const bool has_push_broom = rig.HasPushBroomLidar();
   if (has_push_broom && options.range_split_m <= 0.0) {
-    // 10 m push-broom swathes leave the tilt nearly free (docs/findings.md, "A push-broom lidar's tilt is weakly constrained").
+    // 10 m push-broom swathes leave the tilt nearly free (docs/findings.md, "A push-broom lidar's tilt is weakly
+    // constrained").
     spdlog::info("push-broom lidar: its tilt is weakly determined by 10 m swathes; on the simulated drives (rear "
                  "and front push-broom lidars) 30 m swathes scored near and far apart did much better: --setting "
                  "push-broom (good odometry) or push-broom-drifting (visual odometry); README, \"What to expect\"");
   } else if (has_push_broom && options.scenes.swathe_length_m >= 20.0 && !options.motion_correction &&
              args.setting != "push-broom") {  // that setting says the odometry is good
-    // Long swathes collect the odometry's drift (docs/findings.md, "Odometry drift moves the minimum along the flat direction").
+    // Long swathes collect the odometry's drift (docs/findings.md, "Odometry drift moves the minimum along the
+    // flat direction").
     spdlog::info("push-broom lidar with {} m swathes: if the trajectory is visual odometry (drifting ~0.01 deg/m), "
                  "--motion-correction turn,drive-scale (--setting push-broom-drifting) corrects each frame's swathe "
                  "and the drive's scale (on two of three simulated drives 0.68-0.85 deg -> 0.12-0.14 deg, 1.4-1.6 "
@@ -247,13 +256,16 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
                  options.scenes.swathe_length_m);
   }
   if (options.motion_correction && options.motion.drive_scale && options.scheme != CalibrationScheme::kAlt &&
-      input.rig.lidars.size() > 1) {
+      rig.lidars.size() > 1) {
     // Only alt's correction spans the lidars (BENCHMARK.md, "Trinocular rig").
     spdlog::warn("--scheme {} corrects the drift of each lidar alone, each with its own drive scale; on the simulated "
                  "trinocular rig that tilted the front lidar 0.6 deg, where alt, which shares one correction among "
                  "the lidars, ended 0.18 deg off",
                  args.scheme);
   }
+}
+
+void LogCalibrationPlan(const CalibrateArguments& args, const CalibrationOptions& options) {
   const bool lbfgs = options.lower_solver == LowerSolver::kLbfgs;
   spdlog::info("calibrating: scheme {}, metric {}, {} bins {}, reflectance {}, stages {}, lower solver {}, up to {} "
                "iterations a run",
@@ -266,10 +278,10 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
                  "costs ~{} plain cost evaluations",
                  kGradientEvaluationCost);
   }
-  Calibrator calibrator(input, options, [](const std::string& message) { spdlog::info("{}", message); });
-  std::optional<CalibrationOutcome> solved = SolveOnGroup(calibrator, group);
-  if (!solved) return kExitSuccess;  // a serving MPI rank; rank 0 writes
-  CalibrationOutcome& outcome = *solved;
+}
+
+// The exit code of a solved calibration (logged when it failed).
+int OutcomeExitCode(const CalibrationOutcome& outcome) {
   if (outcome.status == CalibrationStatus::kInvalidOptions) {
     spdlog::error("{}", outcome.why);
     return kExitInvalidInput;
@@ -278,7 +290,11 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
     spdlog::error("the data cannot be calibrated: {}", outcome.why);
     return kExitFailure;
   }
-  for (const PairReport& pair : outcome.pairs) {
+  return kExitSuccess;
+}
+
+void LogPairReports(const std::vector<PairReport>& pairs) {
+  for (const PairReport& pair : pairs) {
     std::size_t min_points = 0, max_points = 0;
     if (!pair.projected_points.empty()) {
       min_points = *std::min_element(pair.projected_points.begin(), pair.projected_points.end());
@@ -290,49 +306,128 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
                  pair.scenes_constant_image, pair.scenes_constant_reflectance, min_points, max_points,
                  pair.initial_cost, pair.final_cost);
   }
-  CalibrationResult& result = outcome.result;
-  result.timings_s["load"] = load_s;
-  result.settings["image_channel"] = io::ImageChannelName(args.cost.ImageChannel());
+}
+
+// The command line's choices that the result records beside the core's settings.
+void RecordCommandSettings(const CalibrateArguments& args, const std::vector<std::string>& setting_words,
+                           const std::string& single_frame_defaults, CalibrationResult* result) {
+  result->settings["image_channel"] = io::ImageChannelName(args.cost.ImageChannel());
   if (!args.setting.empty()) {
-    result.settings["setting"] =
+    result->settings["setting"] =
         args.setting + (setting_words.empty() ? "" : fmt::format(": {}", fmt::join(setting_words, " ")));
   }
-  if (!single_frame_defaults.empty()) result.settings["single_frame_defaults"] = single_frame_defaults;
-  if (args.perturb_translation_m > 0.0 || args.perturb_rotation_deg > 0.0 || args.perturb_from_truth) {
-    result.settings["perturb_initial"] =
+  if (!single_frame_defaults.empty()) result->settings["single_frame_defaults"] = single_frame_defaults;
+  if (PerturbsInitialGuesses(args)) {
+    result->settings["perturb_initial"] =
         fmt::format("{} m, {} deg, seed {}, from {}", args.perturb_translation_m, args.perturb_rotation_deg, args.seed,
                     args.perturb_from_truth ? "truth" : "rig.yaml");
   }
-  YAML::Node extra(YAML::NodeType::Map);
-  // The budget counts from the command's start; the steps after the
-  // optimisation that it can skip are skipped once it is spent.
+}
+
+// The uncertainty estimate and the basin check of the answer (into *result
+// and *extra), unless --no-uncertainty / --no-basin-check or the time budget
+// is spent: it counts from the command's `start`.
+void CheckAnswer(const CalibrateArguments& args, const CalibrationOptions& options, Calibrator& calibrator,
+                 std::chrono::steady_clock::time_point start, CalibrationResult* result, YAML::Node* extra) {
   const auto budget_spent = [&] {
     const double elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return args.time_budget_s > 0.0 && elapsed_s >= args.time_budget_s;
   };
   if (!args.no_uncertainty && budget_spent()) {
     spdlog::warn("no uncertainty estimate: the time budget ({} s) is spent", args.time_budget_s);
-    result.settings["uncertainty"] = "skipped: time budget spent";
+    result->settings["uncertainty"] = "skipped: time budget spent";
   } else if (!args.no_uncertainty) {
     if (options.motion_correction) {
       spdlog::info("uncertainty: the frames' drift corrections are held as estimated at the answer; their own "
                    "freedom is not in it (with --motion-correction the error can be several times larger)");
     }
-    extra["uncertainty"] = ReportUncertainty(calibrator, &result);
+    (*extra)["uncertainty"] = ReportUncertainty(calibrator, result);
   }
   if (!args.no_basin_check) {
     if (budget_spent()) {
       // The check runs the final stage six times per lidar: not within a spent budget.
       spdlog::warn("no basin check: the time budget ({} s) is spent", args.time_budget_s);
-      result.settings["basin_check"] = "skipped: time budget spent";
+      result->settings["basin_check"] = "skipped: time budget spent";
     } else {
-      extra["basin_check"] = ReportBasinCheck(calibrator, args.basin_offset_deg, &result);
+      (*extra)["basin_check"] = ReportBasinCheck(calibrator, args.basin_offset_deg, result);
     }
   }
+}
+
+// With ground truth in the dataset: the errors of the result per lidar (and
+// of its initial guess in `rig`) and per pair, on stdout.
+void PrintErrorsAgainstTruth(const io::Dataset& dataset, const Rig& rig, const CalibrationResult& result) {
+  if (!dataset.ground_truth) return;
+  const GroundTruth& truth = *dataset.ground_truth;
+  for (const LidarCalibration& lidar : result.lidars) {
+    const auto gt = truth.T_base_lidar.find(lidar.lidar);
+    if (gt == truth.T_base_lidar.end()) continue;
+    const LidarInfo* initial = rig.FindLidar(lidar.lidar);
+    fmt::print("lidar {} T_base_lidar error: {}\n", lidar.lidar, ErrorLine(lidar.T_base_lidar, gt->second));
+    if (initial != nullptr) {
+      fmt::print("lidar {} initial guess error: {}\n", lidar.lidar, ErrorLine(initial->T_base_lidar, gt->second));
+    }
+  }
+  for (const PairCalibration& pair : result.pairs) {
+    const auto gt = truth.T_base_lidar.find(pair.lidar);
+    const CameraInfo* camera = dataset.rig.FindCamera(pair.camera);
+    if (gt == truth.T_base_lidar.end() || camera == nullptr) continue;
+    const auto camera_truth = truth.T_base_camera.find(pair.camera);
+    const Eigen::Isometry3d T_base_camera =
+        camera_truth == truth.T_base_camera.end() ? camera->T_base_camera : camera_truth->second;
+    fmt::print("pair {}/{} T_camera_lidar error: {}\n", pair.camera, pair.lidar,
+               ErrorLine(pair.T_camera_lidar, T_base_camera.inverse() * gt->second));
+  }
+}
+
+int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
+  const auto start = std::chrono::steady_clock::now();
+  // Before any work: a result that could not be written would waste the run.
+  // Only rank 0 writes, and other hosts need not have its output folder.
+  if (group.IsRoot()) {
+    io::CheckOutputFile(args.output, "--output");
+    if (!args.report_dir.empty()) io::CheckOutputFolderWritable(args.report_dir, "--report");
+  }
+  CalibrationOptions options;
+  if (const int exit_code = MakeCalibrationOptions(args, &options); exit_code != kExitSuccess) return exit_code;
+  const auto thread_limit = LimitThreads(args.threads);
+  std::string single_frame_defaults;
+  const io::Dataset dataset = OpenDatasetWithDefaults(args.dataset, args.cost, &options, &single_frame_defaults);
+  std::vector<std::string> setting_words = args.setting_words;
+  if (const int exit_code = ApplySettingToDataset(args, dataset, &options, &setting_words);
+      exit_code != kExitSuccess) {
+    return exit_code;
+  }
+
+  CalibrationInput input;
+  input.rig = dataset.rig;
+  if (const int exit_code = PerturbInitialGuesses(args, dataset, &input.rig); exit_code != kExitSuccess) {
+    return exit_code;
+  }
+  const LoadedScenes loaded = SelectAndLoadScenes(dataset, options.scenes, &input, args.cost.ImageChannel());
+  const double load_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  spdlog::info("loaded {} lidar points in {:.2f} s", loaded.lidar_points, load_s);
+  LogAdviceForRig(args, options, input.rig);
+  LogCalibrationPlan(args, options);
+
+  Calibrator calibrator(input, options, [](const std::string& message) { spdlog::info("{}", message); });
+  std::optional<CalibrationOutcome> solved = SolveOnGroup(calibrator, group);
+  if (!solved) return kExitSuccess;  // a serving MPI rank; rank 0 writes
+  CalibrationOutcome& outcome = *solved;
+  if (const int exit_code = OutcomeExitCode(outcome); exit_code != kExitSuccess) return exit_code;
+  AddOptionAdvice(&outcome);  // the core's warnings name no option: this command's that act on them
+  LogPairReports(outcome.pairs);
+  CalibrationResult& result = outcome.result;
+  result.timings_s["load"] = load_s;
+  RecordCommandSettings(args, setting_words, single_frame_defaults, &result);
+  YAML::Node extra(YAML::NodeType::Map);
+  CheckAnswer(args, options, calibrator, start, &result, &extra);
   result.timings_s["total"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   for (const std::string& warning : result.warnings) spdlog::warn("{}", warning);
   // Each frame's drift correction: what the odometry did over its swathe, as the images saw it.
-  if (!outcome.motion_corrections.empty()) extra["motion_correction"] = io::MotionCorrectionYaml(outcome.motion_corrections);
+  if (!outcome.motion_corrections.empty()) {
+    extra["motion_correction"] = io::MotionCorrectionYaml(outcome.motion_corrections);
+  }
   // The per-alternation history (lower and upper solutions per pair) for the paper's Fig. 4 and 6.
   if (outcome.alternating) extra["history"] = io::AlternatingHistoryYaml(*outcome.alternating);
   // The report first: it takes a while, and an interruption or a failure
@@ -342,29 +437,7 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
   }
   io::WriteCalibrationResult(args.output, result, extra);
   spdlog::info("wrote {} ({})", args.output, result.termination);
-
-  if (dataset.ground_truth) {
-    const GroundTruth& truth = *dataset.ground_truth;
-    for (const LidarCalibration& lidar : result.lidars) {
-      const auto gt = truth.T_base_lidar.find(lidar.lidar);
-      if (gt == truth.T_base_lidar.end()) continue;
-      const LidarInfo* initial = input.rig.FindLidar(lidar.lidar);
-      fmt::print("lidar {} T_base_lidar error: {}\n", lidar.lidar, ErrorLine(lidar.T_base_lidar, gt->second));
-      if (initial != nullptr) {
-        fmt::print("lidar {} initial guess error: {}\n", lidar.lidar, ErrorLine(initial->T_base_lidar, gt->second));
-      }
-    }
-    for (const PairCalibration& pair : result.pairs) {
-      const auto gt = truth.T_base_lidar.find(pair.lidar);
-      const CameraInfo* camera = dataset.rig.FindCamera(pair.camera);
-      if (gt == truth.T_base_lidar.end() || camera == nullptr) continue;
-      const auto camera_truth = truth.T_base_camera.find(pair.camera);
-      const Eigen::Isometry3d T_base_camera =
-          camera_truth == truth.T_base_camera.end() ? camera->T_base_camera : camera_truth->second;
-      fmt::print("pair {}/{} T_camera_lidar error: {}\n", pair.camera, pair.lidar,
-                 ErrorLine(pair.T_camera_lidar, T_base_camera.inverse() * gt->second));
-    }
-  }
+  PrintErrorsAgainstTruth(dataset, input.rig, result);
   return kExitSuccess;
 }
 
@@ -396,28 +469,8 @@ int Run(const CalibrateArguments& given) {
   return exit_code;
 }
 
-}  // namespace
-
-CommandRunner AddCalibrateCommand(CLI::App& app) {
-  auto args = std::make_shared<CalibrateArguments>();
-  CLI::App* command = app.add_subcommand(
-      "calibrate",
-      "Calibrate every lidar of DATASET against its cameras (targetless, from the drive) and write FILE.\n"
-      "Exit 1 with the reason when the data cannot be calibrated; 2 for bad arguments or input data.");
-  command->add_option("dataset", args->dataset, "Dataset folder (docs/FORMAT.md)")->required()->check(CLI::ExistingDirectory);
-  command->add_option("-o,--output", args->output, "Result file (YAML, written atomically)")->required();
-  command->add_option("--scheme", args->scheme,
-                      "alt: the paper's alternating optimisation (a lower-level optimiser per camera/lidar pair, an "
-                      "upper-level least squares through the known camera transforms, quadratic penalties with a "
-                      "shrinking covariance); once: each camera/lidar pair alone; joint: one problem per lidar over "
-                      "T_base_lidar, the cost summed over all cameras through the known camera transforms")
-      ->check(CLI::IsMember({"once", "joint", "alt"}))
-      ->capture_default_str();
-  args->command = command;
-  command->add_option("--setting", args->setting, SettingHelp())
-      ->check(CLI::IsMember(SettingNames()));
-  AddCostOptions(command, &args->cost);
-  AddMotionCorrectionOptions(command, &args->motion);
+// The local optimiser and the threads it runs on.
+void AddSolverOptions(CLI::App* command, CalibrateArguments* args) {
   command->add_option("--lower-solver", args->lower_solver,
                       "Local optimiser of every stage (once, joint) and of the alt lower level: simplex (Nelder-Mead, "
                       "the paper; derivative free, any binning) or lbfgs (quasi-Newton with analytic gradients of the "
@@ -433,6 +486,10 @@ CommandRunner AddCalibrateCommand(CLI::App& app) {
   command->add_option("--threads", args->threads, "Worker threads; 0 = all hardware threads")
       ->check(kNonNegative)
       ->capture_default_str();
+}
+
+// Robustness studies: each lidar's initial guess moved in a random direction from --seed.
+void AddPerturbationOptions(CLI::App* command, CalibrateArguments* args) {
   command->add_option("--seed", args->seed,
                       "Seed of the random directions of --perturb-translation/--perturb-rotation (the calibration "
                       "itself is deterministic)")
@@ -447,6 +504,10 @@ CommandRunner AddCalibrateCommand(CLI::App& app) {
                       "random axis (from --seed)")
       ->check(kNonNegative)
       ->capture_default_str();
+}
+
+// How long the optimisation runs and in which coarse-to-fine steps.
+void AddScheduleOptions(CLI::App* command, CalibrateArguments* args) {
   command->add_option("--time-budget", args->time_budget_s,
                       "Wall-clock budget of the optimisation in seconds; 0 = none. The optimisation stops when it "
                       "runs out and keeps the best point so far; loading the data (and for --scheme alt building the "
@@ -472,6 +533,10 @@ CommandRunner AddCalibrateCommand(CLI::App& app) {
                       "Initial simplex step (lbfgs: parameter scale), degrees (first stage)")
       ->check(kPositive)
       ->capture_default_str();
+}
+
+// Where the optimisation starts (robustness studies) and what the simplex turns the lidar about.
+void AddStartOptions(CLI::App* command, CalibrateArguments* args) {
   command->add_flag("--perturb-from-truth", args->perturb_from_truth,
                     "Robustness studies: start from ground_truth.yaml's T_base_lidar (moved by --perturb-*) instead "
                     "of rig.yaml's guess");
@@ -480,11 +545,15 @@ CommandRunner AddCalibrateCommand(CLI::App& app) {
                       "centroid of the lidar points seen at the initial guess)")
       ->check(CLI::IsMember({"origin", "centroid"}))
       ->capture_default_str();
+}
+
+// What follows the calibration: the uncertainty, the basin check and the report.
+void AddAfterCalibrationOptions(CLI::App* command, CalibrateArguments* args) {
   command->add_flag("--no-uncertainty", args->no_uncertainty,
                     "Skip the uncertainty estimate after the calibration (by default each lidar gets a local "
                     "1-sigma per parameter, or a warning naming the directions the data do not determine; ~130 "
-                    "cost evaluations: seconds for push-broom swathes, minutes for dense 3D sweeps; skipped when --time-budget "
-                    "is spent by then)");
+                    "cost evaluations: seconds for push-broom swathes, minutes for dense 3D sweeps; skipped when "
+                    "--time-budget is spent by then)");
   command->add_flag("--no-basin-check", args->no_basin_check,
                     "Skip the basin check after the calibration (by default the joint cost is minimised again from "
                     "the answer turned +-1 deg about each base axis, and a warning says when those runs end apart: "
@@ -497,16 +566,19 @@ CommandRunner AddCalibrateCommand(CLI::App& app) {
   command->add_option("--report", args->report_dir,
                       "Write an HTML report with convergence, cost slices and overlays into this directory "
                       "(report.html and PNGs)");
-  AlternatingArguments& alt = args->alternating;
-  command->add_option("--backend", alt.backend,
+}
+
+// The alt scheme's options (the lower levels' backend, the alternations, the penalty).
+void AddAlternatingOptions(CLI::App* command, AlternatingArguments* alt) {
+  command->add_option("--backend", alt->backend,
                       "Where the lower levels of --scheme alt run: threads (this process) or mpi (the ranks of "
                       "mpirun; every rank reads the dataset, rank 0 writes the result)")
       ->check(CLI::IsMember({"threads", "mpi"}))
       ->capture_default_str();
-  command->add_option("--alternations", alt.alternations, "alt: maximum number of alternations (the paper: 20)")
+  command->add_option("--alternations", alt->alternations, "alt: maximum number of alternations (the paper: 20)")
       ->check(CLI::Range(1, 10000))
       ->capture_default_str();
-  command->add_option("--stage-alternations", alt.stage_alternations,
+  command->add_option("--stage-alternations", alt->stage_alternations,
                       "alt: spread the coarse-to-fine stages (--stages) over the first N alternations; the "
                       "rest stay in the sharp stage and only tighten the penalty until the two levels agree "
                       "(0: over all). With --alternations 40 --stage-alternations 20 on the push-broom setting "
@@ -514,40 +586,74 @@ CommandRunner AddCalibrateCommand(CLI::App& app) {
                       "(BENCHMARK.md)")
       ->check(CLI::Range(0, 10000))
       ->capture_default_str();
-  command->add_option("--shrink", alt.shrink, "alt: covariance factor w of the penalty, P(i+1) = w P(i), in (0, 1)")
+  command->add_option("--shrink", alt->shrink, "alt: covariance factor w of the penalty, P(i+1) = w P(i), in (0, 1)")
       ->check(CLI::Range(1e-6, 0.999999))
       ->capture_default_str();
-  command->add_option("--penalty-frame", alt.penalty_frame,
+  command->add_option("--penalty-frame", alt->penalty_frame,
                       "alt: where the penalty's sigmas hold: lidar (the lidar's position and its turn about its own "
                       "origin) or camera (the camera-frame difference itself, where a turn of a lidar metres away "
                       "also pays its lever-arm shift at the translation sigma and is held back)")
       ->check(CLI::IsMember({"lidar", "camera"}))
       ->capture_default_str();
-  command->add_option("--sigma0-translation", alt.sigma0_translation_m,
+  command->add_option("--sigma0-translation", alt->sigma0_translation_m,
                       "alt: initial penalty sigma, metres. Default: 5 (the paper) with the simplex lower level, 500 "
                       "with --lower-solver lbfgs, whose lower levels the paper's value already holds near the upper "
-                      "estimate where the cost is flat (docs/findings.md, \"The alternating scheme's penalty holds in the lidar frame\")")
+                      "estimate where the cost is flat (docs/findings.md, \"The alternating scheme's penalty holds "
+                      "in the lidar frame\")")
       ->check(kPositive);
-  command->add_option("--sigma0-rotation", alt.sigma0_rotation_rad,
+  command->add_option("--sigma0-rotation", alt->sigma0_rotation_rad,
                       "alt: initial penalty sigma, radians. Default: 5 (the paper) with the simplex, 500 with "
                       "--lower-solver lbfgs")
       ->check(kPositive);
-  command->add_option("--stop-translation", alt.stop_translation_m,
+  command->add_option("--stop-translation", alt->stop_translation_m,
                       "alt: stop early once both levels move, and disagree, by less than this many metres (and "
                       "--stop-rotation)")
       ->check(kNonNegative)
       ->capture_default_str();
-  command->add_option("--stop-rotation", alt.stop_rotation_deg, "alt: the rotation threshold of the early stop, degrees")
+  command
+      ->add_option("--stop-rotation", alt->stop_rotation_deg, "alt: the rotation threshold of the early stop, degrees")
       ->check(kNonNegative)
       ->capture_default_str();
-  command->add_option("--camera-sigma-translation", alt.camera_sigma_translation_m,
+  command->add_option("--camera-sigma-translation", alt->camera_sigma_translation_m,
                       "alt: 1-sigma of known camera transforms that rig.yaml gives no T_base_camera_sigma for, metres")
       ->check(kNonNegative)
       ->capture_default_str();
-  command->add_option("--camera-sigma-rotation", alt.camera_sigma_rotation_deg,
+  command->add_option("--camera-sigma-rotation", alt->camera_sigma_rotation_deg,
                       "alt: the same for rotation, degrees")
       ->check(kNonNegative)
       ->capture_default_str();
+}
+
+}  // namespace
+
+CommandRunner AddCalibrateCommand(CLI::App& app) {
+  auto args = std::make_shared<CalibrateArguments>();
+  CLI::App* command = app.add_subcommand(
+      "calibrate",
+      "Calibrate every lidar of DATASET against its cameras (targetless, from the drive) and write FILE.\n"
+      "Exit 1 with the reason when the data cannot be calibrated; 2 for bad arguments or input data.");
+  command->add_option("dataset", args->dataset, "Dataset folder (docs/FORMAT.md)")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  command->add_option("-o,--output", args->output, "Result file (YAML, written atomically)")->required();
+  command->add_option("--scheme", args->scheme,
+                      "alt: the paper's alternating optimisation (a lower-level optimiser per camera/lidar pair, an "
+                      "upper-level least squares through the known camera transforms, quadratic penalties with a "
+                      "shrinking covariance); once: each camera/lidar pair alone; joint: one problem per lidar over "
+                      "T_base_lidar, the cost summed over all cameras through the known camera transforms")
+      ->check(CLI::IsMember({"once", "joint", "alt"}))
+      ->capture_default_str();
+  args->command = command;
+  command->add_option("--setting", args->setting, SettingHelp())
+      ->check(CLI::IsMember(SettingNames()));
+  AddCostOptions(command, &args->cost);
+  AddMotionCorrectionOptions(command, &args->motion);
+  AddSolverOptions(command, args.get());
+  AddPerturbationOptions(command, args.get());
+  AddScheduleOptions(command, args.get());
+  AddStartOptions(command, args.get());
+  AddAfterCalibrationOptions(command, args.get());
+  AddAlternatingOptions(command, &args->alternating);
   return [args] { return Run(*args); };
 }
 
