@@ -93,7 +93,7 @@ std::unique_ptr<Problem> LoadProblem(int scenes_per_camera, int max_scans_per_sc
   problem->T_base_lidar = lidar.T_base_lidar;
   for (const CameraInfo& camera : dataset.rig.cameras) {
     auto pair = std::make_unique<PairCost>(BuildPairCost(input, camera, lidar.name, options));
-    const Eigen::Isometry3d T_camera_lidar = camera.T_base_camera.inverse() * lidar.T_base_lidar;
+    const Eigen::Isometry3d T_camera_lidar = camera.T_camera_base() * lidar.T_base_lidar;
     pair->RefreshVisibility(T_camera_lidar);
     for (const std::size_t s : bench::UsedScenes(*pair)) {
       problem->swathe_points += pair->Scenes()[s].VisibleCount();
@@ -144,7 +144,7 @@ void CheckAgainstVisitor(Problem& problem, std::size_t* checked_samples, std::si
     for (auto& pair : problem.pairs) {
       pair->SetImageBlur(blur);
       for (const Eigen::Isometry3d& T_base_lidar : poses) {
-        const Eigen::Isometry3d T = pair->Camera().T_base_camera.inverse() * T_base_lidar;
+        const Eigen::Isometry3d T = pair->Camera().T_camera_base() * T_base_lidar;
         for (const SceneSwathe& swathe : pair->Scenes()) {
           const std::vector<std::uint32_t> expected = VisitorCounts(swathe, T, kBins);
           std::vector<std::uint32_t> counts(expected.size(), 0u);
@@ -164,7 +164,7 @@ double JointHardKernelCost(const Problem& problem, const std::vector<std::vector
   for (std::size_t p = 0; p < problem.pairs.size(); ++p) {
     if (used[p].empty()) continue;
     const PairCost& pair = *problem.pairs[p];
-    sum += bench::HardKernelCost(pair, used[p], pair.Camera().T_base_camera.inverse() * problem.T_base_lidar);
+    sum += bench::HardKernelCost(pair, used[p], pair.Camera().T_camera_base() * problem.T_base_lidar);
     ++counted;
   }
   return sum / counted;

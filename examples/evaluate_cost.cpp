@@ -47,7 +47,7 @@ int main(int argc, char** argv) {
 
     // The cost is a function of T_camera_lidar = T_base_camera^-1 * T_base_lidar (known camera transform).
     scenecal::PairCost cost = scenecal::BuildPairCost(input, *camera, lidar->name, options);
-    const Eigen::Isometry3d T_camera_lidar_guess = camera->T_base_camera.inverse() * lidar->T_base_lidar;
+    const Eigen::Isometry3d T_camera_lidar_guess = camera->T_camera_base() * lidar->T_base_lidar;
     // Which points are visible (occlusion) and which scenes count are fixed at the guess, as an optimiser
     // fixes them between its runs: every cost below compares the same points.
     const int scenes_used = cost.RefreshVisibility(T_camera_lidar_guess);
@@ -70,7 +70,7 @@ int main(int argc, char** argv) {
     }
     if (dataset.ground_truth && dataset.ground_truth->T_base_lidar.contains(lidar->name)) {
       extrinsics.emplace_back("ground truth",
-                              camera->T_base_camera.inverse() * dataset.ground_truth->T_base_lidar.at(lidar->name));
+                              camera->T_camera_base() * dataset.ground_truth->T_base_lidar.at(lidar->name));
     }
 
     for (const auto& [name, T_camera_lidar] : extrinsics) {

@@ -245,7 +245,7 @@ TEST(Alternating, TwoLidarsThreeCamerasSolveIndependently) {
     for (int camera = 0; camera < 3; ++camera) {
       problem.pairs.push_back({camera, lidar});
       const Eigen::Isometry3d truth = lidar == 0 ? kT_base_lidar_true : front_true;
-      objectives.push_back(Bowl(problem.cameras[static_cast<std::size_t>(camera)].T_base_camera.inverse() * truth, 1.0, kWidth));
+      objectives.push_back(Bowl(problem.cameras[static_cast<std::size_t>(camera)].T_camera_base() * truth, 1.0, kWidth));
     }
   }
   ThreadLowerLevelBackend backend(std::move(objectives));

@@ -107,7 +107,7 @@ TEST_F(CalibrateOnSimulation, JointNidRecoversTheTruth) {
   for (const PairCalibration& pair : outcome.result.pairs) {
     const CameraInfo* camera = dataset.rig.FindCamera(pair.camera);
     ASSERT_NE(camera, nullptr);
-    EXPECT_TRUE(pair.T_camera_lidar.isApprox(camera->T_base_camera.inverse() * estimate, 1e-9));
+    EXPECT_TRUE(pair.T_camera_lidar.isApprox(camera->T_camera_base() * estimate, 1e-9));
     EXPECT_GT(pair.cost, 0.0);
     EXPECT_LT(pair.cost, 1.0);
   }
@@ -130,7 +130,7 @@ TEST_F(CalibrateOnSimulation, CostIsLowestAtTheTruth) {
   std::vector<const PairCost*> pairs;
   for (const CameraInfo& camera : input.rig.cameras) {
     costs.push_back(std::make_unique<PairCost>(BuildPairCost(input, camera, "lms_rear", options)));
-    EXPECT_GT(costs.back()->RefreshVisibility(camera.T_base_camera.inverse() * truth), 10);
+    EXPECT_GT(costs.back()->RefreshVisibility(camera.T_camera_base() * truth), 10);
     pairs.push_back(costs.back().get());
   }
   ExpectCostRisesAwayFrom([&](const Eigen::Isometry3d& T) { return EvaluateJoint(pairs, T); }, truth, 0.02,
@@ -552,7 +552,7 @@ TEST_F(CalibrateOnSimulation, RangeSplitScoresNearAndFarPointsAsTwoScenes) {
   const CalibrationInput input = Load(dataset, options.scenes);
   const CameraInfo& camera = *input.rig.FindCamera("left");
   const Eigen::Isometry3d T_camera_lidar =
-      camera.T_base_camera.inverse() * dataset.ground_truth->T_base_lidar.at("lms_rear");
+      camera.T_camera_base() * dataset.ground_truth->T_base_lidar.at("lms_rear");
   PairCost whole = BuildPairCost(input, camera, "lms_rear", options);
   options.range_split_m = 5.0;
   std::string why;
@@ -600,7 +600,7 @@ TEST_F(CalibrateOnSimulation, ThinningKeepsFewerPointsOfLongSwathesAndTheSameMin
   for (LidarInfo& lidar : input.rig.lidars) lidar.T_base_lidar = dataset.ground_truth->T_base_lidar.at(lidar.name);
   const CameraInfo& camera = *input.rig.FindCamera("left");
   const Eigen::Isometry3d T_camera_lidar =
-      camera.T_base_camera.inverse() * dataset.ground_truth->T_base_lidar.at("lms_rear");
+      camera.T_camera_base() * dataset.ground_truth->T_base_lidar.at("lms_rear");
   PairCost whole = BuildPairCost(input, camera, "lms_rear", options);
   options.thin_max_points_per_cell = 2;
   std::string why;
@@ -662,7 +662,7 @@ DriftedPairs BuildDriftedPairs(const io::Dataset& dataset,
     const CameraInfo& camera = *input.rig.FindCamera(name);
     drifted.costs.push_back(std::make_unique<PairCost>(BuildPairCost(input, camera, "lms_rear", options)));
     drifted.pairs.push_back(drifted.costs.back().get());
-    drifted.T_camera_lidar.push_back(camera.T_base_camera.inverse() * truth);
+    drifted.T_camera_lidar.push_back(camera.T_camera_base() * truth);
     drifted.costs.back()->RefreshVisibility(drifted.T_camera_lidar.back());
   }
   return drifted;
@@ -858,7 +858,7 @@ TEST_F(CalibrateOnSimulation, CostMachineryIsUnbiasedWhenReflectanceFollowsTheIm
   std::erase_if(input.rig.cameras, [&](const CameraInfo& camera) { return camera.name != camera_name; });
   ASSERT_EQ(input.rig.cameras.size(), 1u);
   const CameraInfo& camera = input.rig.cameras.front();
-  const Eigen::Isometry3d T_camera_lidar = camera.T_base_camera.inverse() * truth;
+  const Eigen::Isometry3d T_camera_lidar = camera.T_camera_base() * truth;
   ASSERT_GE(input.selection.scenes.size(), 4u);
   std::set<TimeUs> seen;
   std::size_t replaced = 0;
@@ -868,7 +868,7 @@ TEST_F(CalibrateOnSimulation, CostMachineryIsUnbiasedWhenReflectanceFollowsTheIm
     for (const SwatheScan& swathe_scan : scene.scans) {
       ASSERT_TRUE(seen.insert(swathe_scan.t_us).second) << "scan " << swathe_scan.t_us << " in two swathes";
       const Eigen::Isometry3d T_camerak_lidar =
-          camera.T_base_camera.inverse() * swathe_scan.T_basek_basej * camera.T_base_camera * T_camera_lidar;
+          camera.T_camera_base() * swathe_scan.T_basek_basej * camera.T_base_camera * T_camera_lidar;
       LidarScan& scan = input.scans.at(scene.lidar).at(swathe_scan.t_us);
       for (std::size_t i = 0; i < scan.points.size(); ++i) {
         LidarPoint& point = scan.points[i];
@@ -961,7 +961,7 @@ TEST_F(CalibrateOnSimulation, BasinCheckRestartsAboutEachAxisAndComparesTheEnds)
   std::vector<const PairCost*> pairs;
   for (const CameraInfo& camera : input.rig.cameras) {
     owned.push_back(std::make_unique<PairCost>(BuildPairCost(input, camera, "lms_rear", options)));
-    owned.back()->RefreshVisibility(camera.T_base_camera.inverse() * result.lidars[0].T_base_lidar);
+    owned.back()->RefreshVisibility(camera.T_camera_base() * result.lidars[0].T_base_lidar);
     pairs.push_back(owned.back().get());
   }
   EXPECT_DOUBLE_EQ(check.cost_answer, EvaluateJoint(pairs, result.lidars[0].T_base_lidar));

@@ -90,7 +90,7 @@ TEST(DgpImport, SceneOneWithItsConventions) {
   for (const Expected& e : expected) {
     SCOPED_TRACE(e.camera);
     const CameraInfo& camera = *dataset.rig.FindCamera(e.camera);
-    const Eigen::Isometry3d T_camera_lidar = camera.T_base_camera.inverse() * dataset.rig.lidars[0].T_base_lidar;
+    const Eigen::Isometry3d T_camera_lidar = camera.T_camera_base() * dataset.rig.lidars[0].T_base_lidar;
     const LidarPoint& p = scan.points[e.point];
     Eigen::Vector2d pixel;
     ASSERT_TRUE(camera.model.Project(T_camera_lidar * Eigen::Vector3d(p.x, p.y, p.z), &pixel));
@@ -119,10 +119,10 @@ TEST(DgpImport, CameraSubsetAndBaseCamera) {
   }());
   const Eigen::Isometry3d T_cam6_cam5_subset = dataset.rig.FindCamera("CAMERA_05")->T_base_camera;
   const Eigen::Isometry3d T_cam6_cam5_all =
-      all.rig.FindCamera("CAMERA_06")->T_base_camera.inverse() * all.rig.FindCamera("CAMERA_05")->T_base_camera;
+      all.rig.FindCamera("CAMERA_06")->T_camera_base() * all.rig.FindCamera("CAMERA_05")->T_base_camera;
   EXPECT_LT(MatrixDistance(T_cam6_cam5_subset, T_cam6_cam5_all), 1e-9);
   const Eigen::Isometry3d T_cam6_lidar_all =
-      all.rig.FindCamera("CAMERA_06")->T_base_camera.inverse() * all.rig.lidars[0].T_base_lidar;
+      all.rig.FindCamera("CAMERA_06")->T_camera_base() * all.rig.lidars[0].T_base_lidar;
   EXPECT_LT(MatrixDistance(dataset.rig.lidars[0].T_base_lidar, T_cam6_lidar_all), 1e-9);
 }
 

@@ -329,7 +329,7 @@ TEST_F(KittiImport, LidarPointsProjectToKittisPixels) {
   int inside = 0;
   for (const int i : {0, 1, 2, 3}) {
     const CameraInfo& camera = *dataset.rig.FindCamera(fmt::format("image_0{}", i));
-    const Eigen::Isometry3d T_camera_lidar = camera.T_base_camera.inverse() * lidar.T_base_lidar;
+    const Eigen::Isometry3d T_camera_lidar = camera.T_camera_base() * lidar.T_base_lidar;
     for (const Eigen::Vector3d& x : drive_.points[0]) {
       Eigen::Vector2d pixel;
       inside += camera.model.Project(T_camera_lidar * x, &pixel);
@@ -434,7 +434,7 @@ TEST_F(KittiImport, CamerasAndFrameRangeAreHonoured) {
     for (std::size_t p = 0; p < 50; ++p) {
       const Eigen::Vector3d& x = drive_.points[1][p];
       Eigen::Vector2d pixel;
-      camera.model.Project(camera.T_base_camera.inverse() * lidar.T_base_lidar * x, &pixel);
+      camera.model.Project(camera.T_camera_base() * lidar.T_base_lidar * x, &pixel);
       ASSERT_LT((pixel - KittiPixel(drive_, i, x)).norm(), 1e-6) << "camera " << i;
     }
   }

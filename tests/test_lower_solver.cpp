@@ -180,7 +180,7 @@ struct JointFixture {
       swathes.push_back(SceneSwathe::Build(s.scene, camera, s.image, {&s.scans[0], &s.scans[1]}, options.swathe,
                                            NormalisationOptions{}));
       costs.push_back(std::make_unique<PairCost>(camera, "lidar", std::move(swathes), options));
-      costs.back()->RefreshVisibility(camera.T_base_camera.inverse() * T_base_lidar);
+      costs.back()->RefreshVisibility(camera.T_camera_base() * T_base_lidar);
       pairs.push_back(costs.back().get());
     }
   }
@@ -370,7 +370,7 @@ TEST_F(LowerSolverOnSimulation, LbfgsLowerLevelRecoversAPerturbedTransform) {
   std::vector<PairObjective> objectives = calibrator.AlternatingObjectives();
   ASSERT_FALSE(objectives.empty());
   const AlternatingPair& pair = calibrator.AlternatingPairs().pairs[0];
-  const Eigen::Isometry3d truth = dataset.rig.cameras[static_cast<std::size_t>(pair.camera)].T_base_camera.inverse() *
+  const Eigen::Isometry3d truth = dataset.rig.cameras[static_cast<std::size_t>(pair.camera)].T_camera_base() *
                                   dataset.ground_truth->T_base_lidar.at("lms_rear");
   const Eigen::Isometry3d start =
       ExpSE3((Vector6d() << 0.02, -0.015, 0.01, RadiansFromDegrees(0.6), RadiansFromDegrees(-0.5),

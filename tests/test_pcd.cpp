@@ -198,7 +198,7 @@ TEST(OpenCalib, ImportOfSetOneReadsBackAndProjectsIntoTheImage) {
   EXPECT_EQ(scan.points.size() + scan.no_returns, 101340u);
   const GreyImage image = io::ReadImage(dataset.images.at("camera")[0], camera.model);
   EXPECT_EQ(image.intensity.cols, 1920);
-  const Eigen::Isometry3d T_camera_lidar = camera.T_base_camera.inverse() * lidar.T_base_lidar;
+  const Eigen::Isometry3d T_camera_lidar = camera.T_camera_base() * lidar.T_base_lidar;
   std::size_t inside = 0;
   for (const LidarPoint& p : scan.points) {
     Eigen::Vector2d pixel;

@@ -550,7 +550,7 @@ TEST(HtmlReport, MakeCalibrationReportDataDerivesPairTruthFromTheRig) {
   outcome.result.warnings = {"w"};
   outcome.result.settings = {{"scheme", "joint"}, {"metric", "mi"}};
   outcome.result.lidars.push_back({"rear", truth.T_base_lidar["rear"], std::nullopt});
-  outcome.result.pairs.push_back({"right", "rear", right.T_base_camera.inverse() * truth.T_base_lidar["rear"], 0.8});
+  outcome.result.pairs.push_back({"right", "rear", right.T_camera_base() * truth.T_base_lidar["rear"], 0.8});
   PairReport report;
   report.camera = "right";
   report.lidar = "rear";

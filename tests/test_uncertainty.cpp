@@ -46,7 +46,7 @@ class UncertaintyOnSimulation : public ::testing::Test {
     std::vector<const PairCost*> pairs;
     for (const CameraInfo& camera : input.rig.cameras) {
       costs.push_back(std::make_unique<PairCost>(BuildPairCost(input, camera, "lms_rear", options)));
-      costs.back()->RefreshVisibility(camera.T_base_camera.inverse() * truth);
+      costs.back()->RefreshVisibility(camera.T_camera_base() * truth);
       pairs.push_back(costs.back().get());
     }
     return EstimateLidarUncertainty(pairs, truth, uncertainty_options);

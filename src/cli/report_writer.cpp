@@ -34,7 +34,7 @@ std::optional<Eigen::Isometry3d> ResultCameraLidar(const CalibrationOutcome& out
     if (pair.camera == camera.name && pair.lidar == lidar) return pair.T_camera_lidar;
   }
   for (const LidarCalibration& result : outcome.result.lidars) {
-    if (result.lidar == lidar) return camera.T_base_camera.inverse() * result.T_base_lidar;
+    if (result.lidar == lidar) return camera.T_camera_base() * result.T_base_lidar;
   }
   return std::nullopt;
 }

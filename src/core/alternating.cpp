@@ -183,7 +183,7 @@ AlternatingResult SolveAlternating(const AlternatingProblem& problem, const Alte
   std::vector<Eigen::Isometry3d> upper(pair_count);
   for (std::size_t p = 0; p < pair_count; ++p) {
     const AlternatingPair& pair = problem.pairs[p];
-    upper[p] = problem.cameras[static_cast<std::size_t>(pair.camera)].T_base_camera.inverse() *
+    upper[p] = problem.cameras[static_cast<std::size_t>(pair.camera)].T_camera_base() *
                problem.lidars[static_cast<std::size_t>(pair.lidar)].T_base_lidar_initial;
   }
   std::vector<Eigen::Isometry3d> lower = upper;

@@ -175,6 +175,8 @@ struct AlternatingCamera {
   std::string name;
   Eigen::Isometry3d T_base_camera = Eigen::Isometry3d::Identity();  // known transform
   std::optional<Vector6d> sigma;  // its 1-sigma from the rig; zeros = exact
+
+  Eigen::Isometry3d T_camera_base() const { return T_base_camera.inverse(); }
 };
 
 struct AlternatingPair {

@@ -41,7 +41,7 @@ LidarBasinCheck CheckLidarBasin(const std::vector<PairCost*>& owned, const Lidar
   // Sharp images and visibility at the answer: the reference every end is compared in.
   const auto prepare_at = [&](const OptimisationStage& stage, const Eigen::Isometry3d& T_base_lidar) {
     for (PairCost* pair : owned) {
-      PreparePairForStage(*pair, stage, pair->Camera().T_base_camera.inverse() * T_base_lidar);
+      PreparePairForStage(*pair, stage, pair->Camera().T_camera_base() * T_base_lidar);
     }
   };
   prepare_at(sharp, answer.T_base_lidar);

@@ -182,7 +182,7 @@ PairCost BuildPairCost(const CalibrationInput& input, const CameraInfo& camera, 
     SceneSwathe whole =
         SceneSwathe::Build(scene, camera, images, scans, options.cost.swathe, options.normalisation);
     const std::vector<std::size_t> per_scan =
-        whole.CountProjectedPerScan(camera.T_base_camera.inverse() * lidar_info->T_base_lidar);
+        whole.CountProjectedPerScan(camera.T_camera_base() * lidar_info->T_base_lidar);
     double first_m = std::numeric_limits<double>::infinity(), last_m = -first_m;
     for (std::size_t j = 0; j < per_scan.size(); ++j) {
       if (per_scan[j] == 0) continue;
@@ -208,7 +208,7 @@ PairCost BuildPairCost(const CalibrationInput& input, const CameraInfo& camera, 
     build(trimmed, kept_scans);
   });
   if (options.thin_max_points_per_cell > 0 && lidar_info != nullptr) {
-    const Eigen::Isometry3d T_camera_lidar_guess = camera.T_base_camera.inverse() * lidar_info->T_base_lidar;
+    const Eigen::Isometry3d T_camera_lidar_guess = camera.T_camera_base() * lidar_info->T_base_lidar;
     tbb::parallel_for(std::size_t{0}, swathes.size(), [&](std::size_t s) {
       for (SceneSwathe& swathe : swathes[s]) {
         swathe.ThinByImageDensity(camera.model, T_camera_lidar_guess, options.thin_cell_px,
@@ -308,7 +308,7 @@ std::optional<Eigen::Vector3d> ObservedCentroid(const std::vector<const PairCost
   std::size_t count = 0;
   for (const PairCost* pair : pairs) {
     std::size_t n = 0;
-    sum += pair->SumProjectedLidarPoints(pair->Camera().T_base_camera.inverse() * T_base_lidar, &n);
+    sum += pair->SumProjectedLidarPoints(pair->Camera().T_camera_base() * T_base_lidar, &n);
     count += n;
   }
   if (count == 0) return std::nullopt;
@@ -346,7 +346,7 @@ void CorrectMotionAtAnswer(const CalibrationOptions& options, const std::vector<
   if (!options.motion_correction) return;
   std::vector<Eigen::Isometry3d> T_camera_lidar;
   for (PairCost* pair : pairs) {
-    T_camera_lidar.push_back(pair->Camera().T_base_camera.inverse() * T_base_lidar);
+    T_camera_lidar.push_back(pair->Camera().T_camera_base() * T_base_lidar);
     pair->RefreshVisibility(T_camera_lidar.back());
   }
   EstimateMotionCorrections(pairs, T_camera_lidar, options.motion);

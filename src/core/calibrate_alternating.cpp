@@ -296,7 +296,7 @@ CalibrationOutcome FinishAlternating(AlternatingSetup& setup, const AlternatingR
     const AlternatingPair& pair = problem.pairs[p];
     PairReport report = MakePairReport(
         cost,
-        problem.cameras[static_cast<std::size_t>(pair.camera)].T_base_camera.inverse() *
+        problem.cameras[static_cast<std::size_t>(pair.camera)].T_camera_base() *
             problem.lidars[static_cast<std::size_t>(pair.lidar)].T_base_lidar_initial,
         setup.initial_costs[p]);
     report.final_cost = cost.Evaluate(T_camera_lidar);

@@ -149,7 +149,7 @@ void Calibrator::BuildPairs() {
     }
     int used = 0;
     for (auto& pair : built.pairs) {
-      used += pair->RefreshVisibility(pair->Camera().T_base_camera.inverse() * lidar.T_base_lidar);
+      used += pair->RefreshVisibility(pair->Camera().T_camera_base() * lidar.T_base_lidar);
     }
     if (used == 0) {
       Cannot(CalibrationStatus::kCannotCalibrate,
@@ -158,7 +158,7 @@ void Calibrator::BuildPairs() {
     }
     // Initial costs (visibility at the initial guess).
     for (const auto& pair : built.pairs) {
-      built.initial_costs.push_back(pair->Evaluate(pair->Camera().T_base_camera.inverse() * lidar.T_base_lidar));
+      built.initial_costs.push_back(pair->Evaluate(pair->Camera().T_camera_base() * lidar.T_base_lidar));
     }
     lidars_.push_back(std::move(built));
   }
@@ -301,14 +301,14 @@ void Calibrator::SolveJoint(LidarPairs& problem, std::vector<Eigen::Isometry3d>*
         std::vector<Eigen::Isometry3d> stage_T_camera_lidar;
         for (auto& pair : problem.pairs) {
           stage_pairs.push_back(pair.get());
-          stage_T_camera_lidar.push_back(pair->Camera().T_base_camera.inverse() * T);
+          stage_T_camera_lidar.push_back(pair->Camera().T_camera_base() * T);
           PreparePairForStage(*pair, stage, stage_T_camera_lidar.back());
         }
         CorrectMotionBeforeStage(stage_pairs, stage, stage_T_camera_lidar, lidar.name);
       },
       &T_base_lidar, run);
   for (std::size_t p = 0; p < problem.pairs.size(); ++p) {
-    (*T_camera_lidar)[p] = problem.pairs[p]->Camera().T_base_camera.inverse() * T_base_lidar;
+    (*T_camera_lidar)[p] = problem.pairs[p]->Camera().T_camera_base() * T_base_lidar;
     (*solved)[p] = true;
   }
 }
@@ -318,7 +318,7 @@ void Calibrator::SolveEachPair(LidarPairs& problem, std::vector<Eigen::Isometry3
   const LidarInfo& lidar = *problem.lidar;
   for (std::size_t p = 0; p < problem.pairs.size(); ++p) {
     PairCost& pair = *problem.pairs[p];
-    (*T_camera_lidar)[p] = pair.Camera().T_base_camera.inverse() * lidar.T_base_lidar;
+    (*T_camera_lidar)[p] = pair.Camera().T_camera_base() * lidar.T_base_lidar;
     if (pair.UsedSceneCount() == 0) {
       run->outcome.result.warnings.push_back("pair " + pair.Camera().name + "/" + lidar.name +
                                              ": no usable scene at the initial guess; pair left out");
@@ -352,7 +352,7 @@ bool Calibrator::FinishLidar(LidarPairs& problem, const std::vector<Eigen::Isome
   std::vector<Eigen::Isometry3d> implied_base_lidar;
   for (std::size_t p = 0; p < problem.pairs.size(); ++p) {
     PairCost& pair = *problem.pairs[p];
-    const Eigen::Isometry3d T_initial = pair.Camera().T_base_camera.inverse() * lidar.T_base_lidar;
+    const Eigen::Isometry3d T_initial = pair.Camera().T_camera_base() * lidar.T_base_lidar;
     if (!solved[p]) {
       outcome.pairs.push_back(MakePairReport(pair, T_initial, problem.initial_costs[p]));
       continue;
@@ -429,7 +429,7 @@ std::vector<PairCost*> Calibrator::PairsAt(const std::string& lidar, const Eigen
     if (pair->SceneCount() == 0) continue;
     pair->SetBinning(binning);
     pair->SetImageBlur(0.0);
-    pair->RefreshVisibility(pair->Camera().T_base_camera.inverse() * T_base_lidar);
+    pair->RefreshVisibility(pair->Camera().T_camera_base() * T_base_lidar);
     pairs.push_back(pair.get());
   }
   CorrectMotionAtAnswer(options_, pairs, T_base_lidar);

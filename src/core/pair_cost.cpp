@@ -318,7 +318,7 @@ double EvaluateJoint(const std::vector<const PairCost*>& pairs, const Eigen::Iso
   std::vector<double> costs(pairs.size(), std::numeric_limits<double>::quiet_NaN());
   tbb::parallel_for(std::size_t{0}, pairs.size(), [&](std::size_t p) {
     if (pairs[p]->UsedSceneCount() == 0) return;
-    costs[p] = pairs[p]->Evaluate(pairs[p]->Camera().T_base_camera.inverse() * T_base_lidar);
+    costs[p] = pairs[p]->Evaluate(pairs[p]->Camera().T_camera_base() * T_base_lidar);
   });
   double sum = 0.0;
   int counted = 0;

@@ -22,6 +22,8 @@ struct CameraInfo {
   // 1-sigma of the known transform (m, m, m, rad, rad, rad) in the 6-tuple
   // parameterisation; absent means "no stated uncertainty".
   std::optional<Vector6d> T_base_camera_sigma;
+
+  Eigen::Isometry3d T_camera_base() const { return T_base_camera.inverse(); }
 };
 
 enum class LidarKind { k2d, k3d };

@@ -39,7 +39,7 @@ class UnitCosts {
     for (const PairCost* pair : pairs_) {
       const double weight = pair_weight / static_cast<double>(pair->UsedSceneCount());
       for (const SceneEvaluation& scene :
-           pair->EvaluateScenes(pair->Camera().T_base_camera.inverse() * T_base_lidar)) {
+           pair->EvaluateScenes(pair->Camera().T_camera_base() * T_base_lidar)) {
         if (scene.state != SceneState::kUsed) continue;
         units[scene.image_t_us] += weight * scene.cost;
       }

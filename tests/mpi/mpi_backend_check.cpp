@@ -36,7 +36,7 @@ AlternatingProblem Problem(std::vector<PairObjective>* objectives) {
       // Slightly inconsistent minima, so the upper level has work to do.
       Eigen::Isometry3d truth = lidar == 0 ? kRear : kFront;
       truth.translation().z() += 0.004 * camera;
-      objectives->push_back(Bowl(problem.cameras[static_cast<std::size_t>(camera)].T_base_camera.inverse() * truth,
+      objectives->push_back(Bowl(problem.cameras[static_cast<std::size_t>(camera)].T_camera_base() * truth,
                                  1.0 + 0.5 * camera));
     }
   }
