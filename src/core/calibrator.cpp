@@ -421,12 +421,12 @@ Calibrator::LidarPairs* Calibrator::FindLidar(const std::string& lidar) {
 }
 
 std::vector<PairCost*> Calibrator::PairsAt(const std::string& lidar, const Eigen::Isometry3d& T_base_lidar,
-                                           Binning binning) {
+                                           Binning binning, const std::string& only_camera) {
   std::vector<PairCost*> pairs;
   LidarPairs* built = FindLidar(lidar);
   if (built == nullptr) return pairs;
   for (auto& pair : built->pairs) {
-    if (pair->SceneCount() == 0) continue;
+    if (pair->SceneCount() == 0 || (!only_camera.empty() && pair->Camera().name != only_camera)) continue;
     pair->SetBinning(binning);
     pair->SetImageBlur(0.0);
     pair->RefreshVisibility(pair->Camera().T_camera_base() * T_base_lidar);
@@ -438,10 +438,9 @@ std::vector<PairCost*> Calibrator::PairsAt(const std::string& lidar, const Eigen
 
 PairCost* Calibrator::PairAt(const std::string& camera, const std::string& lidar,
                              const Eigen::Isometry3d& T_base_lidar) {
-  for (PairCost* pair : PairsAt(lidar, T_base_lidar, options_.cost.histogram.binning)) {
-    if (pair->Camera().name == camera) return pair;
-  }
-  return nullptr;
+  // That pair alone: preparing every pair of the lidar for each one would repeat the work per camera.
+  const std::vector<PairCost*> pairs = PairsAt(lidar, T_base_lidar, options_.cost.histogram.binning, camera);
+  return pairs.empty() ? nullptr : pairs.front();
 }
 
 std::vector<LidarUncertainty> Calibrator::EstimateUncertainty(const CalibrationResult& result,

@@ -63,8 +63,10 @@ class Calibrator {
   // options.motion_correction, the frames' drift corrections re-estimated
   // there (shared across the pairs), so that they score what the
   // calibration ended on.
-  std::vector<PairCost*> PairsAt(const std::string& lidar, const Eigen::Isometry3d& T_base_lidar, Binning binning);
-  // The pair (camera, lidar) prepared as PairsAt does, or null when it has no scene.
+  // only_camera: that camera's pair alone (its drift correction then its own).
+  std::vector<PairCost*> PairsAt(const std::string& lidar, const Eigen::Isometry3d& T_base_lidar, Binning binning,
+                                 const std::string& only_camera = "");
+  // The pair (camera, lidar) alone prepared as PairsAt does, or null when it has no scene.
   PairCost* PairAt(const std::string& camera, const std::string& lidar, const Eigen::Isometry3d& T_base_lidar);
 
   // Each lidar's local uncertainty at the result (core/uncertainty.hpp), on
