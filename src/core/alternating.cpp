@@ -1,6 +1,7 @@
 #include "core/alternating.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <sstream>
 
@@ -160,6 +161,226 @@ struct Change {
   }
 };
 
+// Wall time since construction against an optional budget (0: none).
+class TimeBudget {
+ public:
+  explicit TimeBudget(double budget_s) : budget_s_(budget_s), start_(Clock::now()) {}
+
+  double ElapsedS() const { return std::chrono::duration<double>(Clock::now() - start_).count(); }
+  // Polled by the solvers: true once the budget has run out, and from then on.
+  bool Exhausted() {
+    if (budget_s_ > 0 && ElapsedS() > budget_s_) out_of_time_ = true;
+    return out_of_time_;
+  }
+  bool RanOut() const { return out_of_time_; }
+
+ private:
+  using Clock = std::chrono::steady_clock;
+  double budget_s_;
+  Clock::time_point start_;
+  bool out_of_time_ = false;
+};
+
+// Both levels' estimates of T_camera_lidar, per pair, between alternations.
+struct LevelEstimates {
+  std::vector<Eigen::Isometry3d> upper;
+  std::vector<Eigen::Isometry3d> lower;
+  std::vector<double> lower_cost;  // f_p at the lower estimate
+};
+
+LevelEstimates InitialEstimates(const AlternatingProblem& problem) {
+  const std::size_t pair_count = problem.pairs.size();
+  LevelEstimates estimates;
+  estimates.upper.resize(pair_count);
+  for (std::size_t p = 0; p < pair_count; ++p) {
+    const AlternatingPair& pair = problem.pairs[p];
+    estimates.upper[p] = problem.cameras[static_cast<std::size_t>(pair.camera)].T_camera_base() *
+                         problem.lidars[static_cast<std::size_t>(pair.lidar)].T_base_lidar_initial;
+  }
+  estimates.lower = estimates.upper;
+  estimates.lower_cost.assign(pair_count, 0.0);
+  return estimates;
+}
+
+// The camera's 1-sigma of T_base_camera: the rig's, else the defaults.
+Vector6d CameraSigma(const AlternatingProblem& problem, const AlternatingOptions& options, int camera) {
+  const AlternatingCamera& info = problem.cameras[static_cast<std::size_t>(camera)];
+  if (info.sigma) return *info.sigma;
+  Vector6d sigma;
+  sigma << Eigen::Vector3d::Constant(options.default_camera_sigma_translation_m),
+      Eigen::Vector3d::Constant(options.default_camera_sigma_rotation_rad);
+  return sigma;
+}
+
+AlternationRecord StartRecord(const AlternatingOptions& options, int alternation) {
+  AlternationRecord record;
+  record.alternation = alternation;
+  const double shrink = std::pow(options.covariance_shrink, 0.5 * alternation);  // sigma scales by sqrt(w)
+  record.sigma_translation_m = options.initial_sigma_translation_m * shrink;
+  record.sigma_rotation_rad = options.initial_sigma_rotation_rad * shrink;
+  return record;
+}
+
+// Per pair, at its upper estimate (the lower level's fixed target and the upper level's start).
+std::vector<Matrix6d> PairInformation(const AlternatingOptions& options, const AlternationRecord& record,
+                                      const std::vector<Eigen::Isometry3d>& upper) {
+  std::vector<Matrix6d> information(upper.size());
+  for (std::size_t p = 0; p < upper.size(); ++p) {
+    information[p] = PairPenaltyInformation(record.sigma_translation_m, record.sigma_rotation_rad,
+                                            options.penalty_frame, upper[p]);
+  }
+  return information;
+}
+
+// Lower level (eq. 13): every pair independently, from the upper estimate.
+std::vector<LowerLevelTask> LowerLevelTasks(const AlternatingOptions& options, const AlternationRecord& record,
+                                            const std::vector<Eigen::Isometry3d>& upper,
+                                            const std::vector<Matrix6d>& information) {
+  const auto alternation = static_cast<std::size_t>(record.alternation);
+  const double step_scale =
+      alternation < options.lower_step_scale.size() ? options.lower_step_scale[alternation] : 1.0;
+  std::vector<LowerLevelTask> tasks(upper.size());
+  for (std::size_t p = 0; p < upper.size(); ++p) {
+    LowerLevelTask& task = tasks[p];
+    task.pair = static_cast<int>(p);
+    task.alternation = record.alternation;
+    task.T_camera_lidar_upper = upper[p];
+    task.T_camera_lidar_start = upper[p];
+    task.penalty_information = information[p];
+    task.options = options.lower;
+    task.options.initial_step_translation_m =
+        std::min(step_scale * options.lower.initial_step_translation_m, record.sigma_translation_m);
+    task.options.initial_step_rotation_rad =
+        std::min(step_scale * options.lower.initial_step_rotation_rad, record.sigma_rotation_rad);
+    task.solver = options.lower_solver;
+    task.gradient = options.lower_gradient;
+    task.gradient.initial_step_translation_m =
+        std::min(step_scale * options.lower_gradient.initial_step_translation_m, record.sigma_translation_m);
+    task.gradient.initial_step_rotation_rad =
+        std::min(step_scale * options.lower_gradient.initial_step_rotation_rad, record.sigma_rotation_rad);
+  }
+  return tasks;
+}
+
+void TakeLowerLevel(const std::vector<LowerLevelOutcome>& outcomes, LevelEstimates* estimates,
+                    AlternationRecord* record, AlternatingResult* result, Change* change) {
+  for (std::size_t p = 0; p < outcomes.size(); ++p) {
+    change->Include(outcomes[p].T_camera_lidar, estimates->lower[p]);
+    estimates->lower[p] = outcomes[p].T_camera_lidar;
+    estimates->lower_cost[p] = outcomes[p].cost;
+    record->lower_evaluations.push_back(outcomes[p].summary.evaluations);
+    result->total_evaluations += outcomes[p].summary.evaluations;
+    record->lower_gradient_evaluations.push_back(outcomes[p].gradient_evaluations);
+    result->total_gradient_evaluations += outcomes[p].gradient_evaluations;
+  }
+}
+
+// The pairs of one lidar, as the cameras of its upper-level problem.
+struct LidarPairs {
+  std::vector<std::size_t> members;  // indices into AlternatingProblem::pairs
+  int base_member = 0;  // the reference: the base camera's pair if it sees this lidar, else the first
+  int reference_camera = 0;
+};
+
+LidarPairs PairsOfLidar(const AlternatingProblem& problem, std::size_t lidar) {
+  LidarPairs pairs;
+  for (std::size_t p = 0; p < problem.pairs.size(); ++p) {
+    if (problem.pairs[p].lidar == static_cast<int>(lidar)) pairs.members.push_back(p);
+  }
+  if (pairs.members.empty()) return pairs;
+  for (std::size_t m = 0; m < pairs.members.size(); ++m) {
+    if (problem.pairs[pairs.members[m]].camera == problem.base_camera) pairs.base_member = static_cast<int>(m);
+  }
+  pairs.reference_camera = problem.pairs[pairs.members[static_cast<std::size_t>(pairs.base_member)]].camera;
+  return pairs;
+}
+
+UpperLevelProblem MakeUpperLevelProblem(const AlternatingProblem& problem, const AlternatingOptions& options,
+                                        const LidarPairs& pairs, const LevelEstimates& estimates,
+                                        const std::vector<Matrix6d>& information) {
+  UpperLevelProblem upper_problem;
+  upper_problem.base_camera = pairs.base_member;
+  const int reference = pairs.reference_camera;
+  for (const std::size_t p : pairs.members) {
+    const int camera = problem.pairs[p].camera;
+    UpperLevelCamera entry;
+    entry.T_base_camera = problem.cameras[static_cast<std::size_t>(camera)].T_base_camera;
+    // Relative uncertainty between the reference camera and this one.
+    entry.sigma = (CameraSigma(problem, options, camera).array().square() +
+                   (reference == problem.base_camera ? Vector6d::Zero() : CameraSigma(problem, options, reference))
+                       .array()
+                       .square())
+                      .sqrt()
+                      .matrix();
+    entry.T_camera_lidar_lower = estimates.lower[p];
+    entry.penalty_information = information[p];
+    upper_problem.cameras.push_back(entry);
+    upper_problem.T_camera_lidar_start.push_back(estimates.upper[p]);
+  }
+  return upper_problem;
+}
+
+// Upper level (eq. 14), per lidar, over the pairs of that lidar. False, with
+// result->termination saying why, when a lidar's problem fails.
+bool SolveUpperLevels(const AlternatingProblem& problem, const AlternatingOptions& options,
+                      const std::vector<Matrix6d>& information, LevelEstimates* estimates, AlternationRecord* record,
+                      Change* change, AlternatingResult* result) {
+  record->upper_cost.assign(problem.lidars.size(), 0.0);
+  for (std::size_t l = 0; l < problem.lidars.size(); ++l) {
+    const LidarPairs pairs = PairsOfLidar(problem, l);
+    if (pairs.members.empty()) continue;
+    const UpperLevelSolution solution =
+        SolveUpperLevel(MakeUpperLevelProblem(problem, options, pairs, *estimates, information));
+    if (!solution.converged) {
+      result->termination = "upper level failed for lidar " + problem.lidars[l].name + ": " + solution.message;
+      return false;
+    }
+    record->upper_cost[l] = solution.final_cost;
+    for (std::size_t m = 0; m < pairs.members.size(); ++m) {
+      change->Include(solution.T_camera_lidar[m], estimates->upper[pairs.members[m]]);
+      estimates->upper[pairs.members[m]] = solution.T_camera_lidar[m];
+    }
+    // T_base_lidar from the reference camera's pair, through its known transform.
+    result->T_base_lidar[l] = problem.cameras[static_cast<std::size_t>(pairs.reference_camera)].T_base_camera *
+                              estimates->upper[pairs.members[static_cast<std::size_t>(pairs.base_member)]];
+  }
+  return true;
+}
+
+// Records both levels' estimates, the change and the levels' disagreement; returns the disagreement.
+Change FinishRecord(const LevelEstimates& estimates, const Change& change, AlternationRecord* record) {
+  Change disagreement;
+  for (std::size_t p = 0; p < estimates.upper.size(); ++p) disagreement.Include(estimates.lower[p], estimates.upper[p]);
+  record->T_camera_lidar_lower = estimates.lower;
+  record->T_camera_lidar_upper = estimates.upper;
+  record->lower_cost = estimates.lower_cost;
+  record->max_change_translation_m = change.translation_m;
+  record->max_change_rotation_rad = change.rotation_rad;
+  record->max_disagreement_translation_m = disagreement.translation_m;
+  record->max_disagreement_rotation_rad = disagreement.rotation_rad;
+  return disagreement;
+}
+
+// Why the alternations stop after `alternation`; empty to go on.
+std::string StopReason(const AlternatingOptions& options, int alternation, bool out_of_time, const Change& change,
+                       const Change& disagreement) {
+  if (out_of_time) {
+    std::ostringstream message;
+    message << "time budget of " << options.time_budget_s << " s ran out during alternation " << alternation + 1
+            << "; the best estimate so far is returned";
+    return message.str();
+  }
+  const bool settled = change.translation_m <= options.stop_translation_m &&
+                       change.rotation_rad <= options.stop_rotation_rad &&
+                       disagreement.translation_m <= options.stop_translation_m &&
+                       disagreement.rotation_rad <= options.stop_rotation_rad;
+  if (alternation > 0 && alternation + 1 >= options.min_alternations && settled) {
+    return "converged after " + std::to_string(alternation + 1) +
+           " alternations: both levels moved and disagree less than the stop thresholds";
+  }
+  return "";
+}
+
 }  // namespace
 
 AlternatingResult SolveAlternating(const AlternatingProblem& problem, const AlternatingOptions& options,
@@ -170,74 +391,20 @@ AlternatingResult SolveAlternating(const AlternatingProblem& problem, const Alte
     result.termination = "invalid problem: " + why;
     return result;
   }
-  using Clock = std::chrono::steady_clock;
-  const Clock::time_point start_time = Clock::now();
-  const auto elapsed_s = [&] { return std::chrono::duration<double>(Clock::now() - start_time).count(); };
-  bool out_of_time = false;
-  const StopRequested stop_requested = [&] {
-    if (options.time_budget_s > 0 && elapsed_s() > options.time_budget_s) out_of_time = true;
-    return out_of_time;
-  };
+  TimeBudget budget(options.time_budget_s);
+  const StopRequested stop_requested = [&budget] { return budget.Exhausted(); };
 
   const std::size_t pair_count = problem.pairs.size();
-  std::vector<Eigen::Isometry3d> upper(pair_count);
-  for (std::size_t p = 0; p < pair_count; ++p) {
-    const AlternatingPair& pair = problem.pairs[p];
-    upper[p] = problem.cameras[static_cast<std::size_t>(pair.camera)].T_camera_base() *
-               problem.lidars[static_cast<std::size_t>(pair.lidar)].T_base_lidar_initial;
-  }
-  std::vector<Eigen::Isometry3d> lower = upper;
-  std::vector<double> lower_cost(pair_count, 0.0);
+  LevelEstimates estimates = InitialEstimates(problem);
   result.T_base_lidar.resize(problem.lidars.size());
-  for (std::size_t l = 0; l < problem.lidars.size(); ++l) result.T_base_lidar[l] = problem.lidars[l].T_base_lidar_initial;
-
-  const auto camera_sigma = [&](int camera) -> Vector6d {
-    const AlternatingCamera& info = problem.cameras[static_cast<std::size_t>(camera)];
-    if (info.sigma) return *info.sigma;
-    Vector6d sigma;
-    sigma << Eigen::Vector3d::Constant(options.default_camera_sigma_translation_m),
-        Eigen::Vector3d::Constant(options.default_camera_sigma_rotation_rad);
-    return sigma;
-  };
+  for (std::size_t l = 0; l < problem.lidars.size(); ++l)
+    result.T_base_lidar[l] = problem.lidars[l].T_base_lidar_initial;
 
   for (int alternation = 0; alternation < options.max_alternations; ++alternation) {
     ThrowIfInterrupted();
-    AlternationRecord record;
-    record.alternation = alternation;
-    const double shrink = std::pow(options.covariance_shrink, 0.5 * alternation);  // sigma scales by sqrt(w)
-    record.sigma_translation_m = options.initial_sigma_translation_m * shrink;
-    record.sigma_rotation_rad = options.initial_sigma_rotation_rad * shrink;
-    // Per pair, at its upper estimate (the lower level's fixed target and the upper level's start).
-    std::vector<Matrix6d> information(pair_count);
-    for (std::size_t p = 0; p < pair_count; ++p) {
-      information[p] = PairPenaltyInformation(record.sigma_translation_m, record.sigma_rotation_rad,
-                                              options.penalty_frame, upper[p]);
-    }
-
-    const double step_scale = static_cast<std::size_t>(alternation) < options.lower_step_scale.size()
-                                  ? options.lower_step_scale[static_cast<std::size_t>(alternation)]
-                                  : 1.0;
-    // Lower level (eq. 13): every pair independently, from the upper estimate.
-    std::vector<LowerLevelTask> tasks(pair_count);
-    for (std::size_t p = 0; p < pair_count; ++p) {
-      LowerLevelTask& task = tasks[p];
-      task.pair = static_cast<int>(p);
-      task.alternation = alternation;
-      task.T_camera_lidar_upper = upper[p];
-      task.T_camera_lidar_start = upper[p];
-      task.penalty_information = information[p];
-      task.options = options.lower;
-      task.options.initial_step_translation_m =
-          std::min(step_scale * options.lower.initial_step_translation_m, record.sigma_translation_m);
-      task.options.initial_step_rotation_rad =
-          std::min(step_scale * options.lower.initial_step_rotation_rad, record.sigma_rotation_rad);
-      task.solver = options.lower_solver;
-      task.gradient = options.lower_gradient;
-      task.gradient.initial_step_translation_m =
-          std::min(step_scale * options.lower_gradient.initial_step_translation_m, record.sigma_translation_m);
-      task.gradient.initial_step_rotation_rad =
-          std::min(step_scale * options.lower_gradient.initial_step_rotation_rad, record.sigma_rotation_rad);
-    }
+    AlternationRecord record = StartRecord(options, alternation);
+    const std::vector<Matrix6d> information = PairInformation(options, record, estimates.upper);
+    const std::vector<LowerLevelTask> tasks = LowerLevelTasks(options, record, estimates.upper, information);
     const std::vector<LowerLevelOutcome> outcomes = backend.Solve(tasks, stop_requested);
     if (outcomes.size() != pair_count) {
       result.termination = "lower-level backend returned " + std::to_string(outcomes.size()) + " outcomes for " +
@@ -245,97 +412,23 @@ AlternatingResult SolveAlternating(const AlternatingProblem& problem, const Alte
       return result;
     }
     Change change;
-    for (std::size_t p = 0; p < pair_count; ++p) {
-      change.Include(outcomes[p].T_camera_lidar, lower[p]);
-      lower[p] = outcomes[p].T_camera_lidar;
-      lower_cost[p] = outcomes[p].cost;
-      record.lower_evaluations.push_back(outcomes[p].summary.evaluations);
-      result.total_evaluations += outcomes[p].summary.evaluations;
-      record.lower_gradient_evaluations.push_back(outcomes[p].gradient_evaluations);
-      result.total_gradient_evaluations += outcomes[p].gradient_evaluations;
-    }
+    TakeLowerLevel(outcomes, &estimates, &record, &result, &change);
+    if (!SolveUpperLevels(problem, options, information, &estimates, &record, &change, &result)) return result;
 
-    // Upper level (eq. 14), per lidar, over the pairs of that lidar.
-    record.upper_cost.assign(problem.lidars.size(), 0.0);
-    for (std::size_t l = 0; l < problem.lidars.size(); ++l) {
-      std::vector<std::size_t> members;
-      for (std::size_t p = 0; p < pair_count; ++p) {
-        if (problem.pairs[p].lidar == static_cast<int>(l)) members.push_back(p);
-      }
-      if (members.empty()) continue;
-      UpperLevelProblem upper_problem;
-      // The reference camera: the base camera if it sees this lidar, else the first.
-      upper_problem.base_camera = 0;
-      for (std::size_t m = 0; m < members.size(); ++m) {
-        if (problem.pairs[members[m]].camera == problem.base_camera) upper_problem.base_camera = static_cast<int>(m);
-      }
-      const int reference = problem.pairs[members[static_cast<std::size_t>(upper_problem.base_camera)]].camera;
-      for (const std::size_t p : members) {
-        const int camera = problem.pairs[p].camera;
-        UpperLevelCamera entry;
-        entry.T_base_camera = problem.cameras[static_cast<std::size_t>(camera)].T_base_camera;
-        // Relative uncertainty between the reference camera and this one.
-        entry.sigma = (camera_sigma(camera).array().square() +
-                       (reference == problem.base_camera ? Vector6d::Zero() : camera_sigma(reference)).array().square())
-                          .sqrt()
-                          .matrix();
-        entry.T_camera_lidar_lower = lower[p];
-        entry.penalty_information = information[p];
-        upper_problem.cameras.push_back(entry);
-        upper_problem.T_camera_lidar_start.push_back(upper[p]);
-      }
-      const UpperLevelSolution solution = SolveUpperLevel(upper_problem);
-      if (!solution.converged) {
-        result.termination = "upper level failed for lidar " + problem.lidars[l].name + ": " + solution.message;
-        return result;
-      }
-      record.upper_cost[l] = solution.final_cost;
-      for (std::size_t m = 0; m < members.size(); ++m) {
-        change.Include(solution.T_camera_lidar[m], upper[members[m]]);
-        upper[members[m]] = solution.T_camera_lidar[m];
-      }
-      // T_base_lidar from the reference camera's pair, through its known transform.
-      result.T_base_lidar[l] = problem.cameras[static_cast<std::size_t>(reference)].T_base_camera *
-                               upper[members[static_cast<std::size_t>(upper_problem.base_camera)]];
-    }
-
-    Change disagreement;
-    for (std::size_t p = 0; p < pair_count; ++p) disagreement.Include(lower[p], upper[p]);
-    record.T_camera_lidar_lower = lower;
-    record.T_camera_lidar_upper = upper;
-    record.lower_cost = lower_cost;
-    record.max_change_translation_m = change.translation_m;
-    record.max_change_rotation_rad = change.rotation_rad;
-    record.max_disagreement_translation_m = disagreement.translation_m;
-    record.max_disagreement_rotation_rad = disagreement.rotation_rad;
-    record.elapsed_s = elapsed_s();
+    const Change disagreement = FinishRecord(estimates, change, &record);
+    record.elapsed_s = budget.ElapsedS();
     result.history.push_back(record);
     result.alternations = alternation + 1;
     if (progress) progress(record);
-
-    if (out_of_time) {
-      std::ostringstream message;
-      message << "time budget of " << options.time_budget_s << " s ran out during alternation " << alternation + 1
-              << "; the best estimate so far is returned";
-      result.termination = message.str();
-      break;
-    }
-    const bool settled = change.translation_m <= options.stop_translation_m &&
-                         change.rotation_rad <= options.stop_rotation_rad &&
-                         disagreement.translation_m <= options.stop_translation_m &&
-                         disagreement.rotation_rad <= options.stop_rotation_rad;
-    if (alternation > 0 && alternation + 1 >= options.min_alternations && settled) {
-      result.termination = "converged after " + std::to_string(alternation + 1) +
-                           " alternations: both levels moved and disagree less than the stop thresholds";
-      break;
-    }
+    result.termination = StopReason(options, alternation, budget.RanOut(), change, disagreement);
+    if (!result.termination.empty()) break;
   }
   if (result.termination.empty()) {
     result.termination = "reached the maximum of " + std::to_string(options.max_alternations) + " alternations";
   }
-  result.T_camera_lidar_upper = upper;
-  result.T_camera_lidar_lower = lower;
-  result.pair_cost = lower_cost;
+  result.T_camera_lidar_upper = estimates.upper;
+  result.T_camera_lidar_lower = estimates.lower;
+  result.pair_cost = estimates.lower_cost;
   result.success = true;
   return result;
 }

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <numeric>
+#include <optional>
 #include <vector>
 
 #include <sstream>
@@ -47,35 +48,35 @@ std::string NelderMeadSummary::BriefReport() const {
   return out.str();
 }
 
-NelderMeadSummary MinimiseNelderMead(const std::function<double(const Eigen::VectorXd&)>& cost,
-                                     const Eigen::VectorXd& steps, const Eigen::VectorXd& tolerances,
-                                     const NelderMeadOptions& options, Eigen::VectorXd* x,
-                                     const StopRequested& stop_requested) {
-  const Eigen::Index n = x->size();
-  NelderMeadSummary summary;
-  const auto evaluate = [&](const Eigen::VectorXd& point) {
-    ++summary.evaluations;
-    const double value = cost(point);
+namespace {
+
+// The cost, counted into *evaluations, with non-finite values as +infinity
+// (worse than any finite value).
+class CountedCost {
+ public:
+  CountedCost(const std::function<double(const Eigen::VectorXd&)>& cost, int* evaluations)
+      : cost_(cost), evaluations_(evaluations) {}
+
+  double operator()(const Eigen::VectorXd& point) const {
+    ++*evaluations_;
+    const double value = cost_(point);
     return std::isfinite(value) ? value : std::numeric_limits<double>::infinity();
-  };
-
-  std::vector<Eigen::VectorXd> vertices(static_cast<std::size_t>(n + 1), *x);
-  std::vector<double> values(static_cast<std::size_t>(n + 1));
-  values[0] = evaluate(*x);
-  summary.initial_value = values[0];
-  summary.final_value = values[0];
-  if (!std::isfinite(values[0])) {
-    summary.termination = NelderMeadTermination::kNonFiniteCost;
-    return summary;
-  }
-  for (Eigen::Index i = 0; i < n; ++i) {
-    auto& vertex = vertices[static_cast<std::size_t>(i + 1)];
-    vertex[i] += steps[i];
-    values[static_cast<std::size_t>(i + 1)] = evaluate(vertex);
   }
 
-  std::vector<std::size_t> order(vertices.size());
-  const auto sort_vertices = [&] {
+ private:
+  const std::function<double(const Eigen::VectorXd&)>& cost_;
+  int* evaluations_;
+};
+
+// n + 1 vertices and their cost values; vertex 0 is the best after Sort().
+struct Simplex {
+  std::vector<Eigen::VectorXd> vertices;
+  std::vector<double> values;
+
+  std::size_t Worst() const { return vertices.size() - 1; }
+
+  void Sort() {
+    std::vector<std::size_t> order(vertices.size());
     std::iota(order.begin(), order.end(), 0);
     std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return values[a] < values[b]; });
     std::vector<Eigen::VectorXd> sorted_vertices(vertices.size());
@@ -86,84 +87,127 @@ NelderMeadSummary MinimiseNelderMead(const std::function<double(const Eigen::Vec
     }
     vertices.swap(sorted_vertices);
     values.swap(sorted_values);
-  };
-  const auto evaluations_exhausted = [&] {
-    return options.max_evaluations > 0 && summary.evaluations >= options.max_evaluations;
-  };
+  }
 
-  sort_vertices();
+  void Replace(std::size_t v, const Eigen::VectorXd& vertex, double value) {
+    vertices[v] = vertex;
+    values[v] = value;
+  }
+};
+
+// Vertex i + 1: the start point (vertex 0, already evaluated) moved by steps[i] along dimension i.
+void AddStepVertices(const Eigen::VectorXd& steps, const CountedCost& evaluate, Simplex* simplex) {
+  const auto n = static_cast<Eigen::Index>(simplex->Worst());
+  for (Eigen::Index i = 0; i < n; ++i) {
+    auto& vertex = simplex->vertices[static_cast<std::size_t>(i + 1)];
+    vertex[i] += steps[i];
+    simplex->values[static_cast<std::size_t>(i + 1)] = evaluate(vertex);
+  }
+}
+
+// Why to stop before the next iteration, if at all (on the sorted simplex).
+std::optional<NelderMeadTermination> Termination(const Simplex& simplex, const Eigen::VectorXd& tolerances,
+                                                 const NelderMeadOptions& options, const NelderMeadSummary& summary,
+                                                 const StopRequested& stop_requested) {
+  const std::size_t worst = simplex.Worst();
+  const std::vector<Eigen::VectorXd>& vertices = simplex.vertices;
+  if (simplex.values[worst] - simplex.values[0] <= options.function_tolerance)
+    return NelderMeadTermination::kFunctionTolerance;
+  bool simplex_small = true;
+  for (std::size_t v = 1; v <= worst && simplex_small; ++v) {
+    simplex_small = ((vertices[v] - vertices[0]).cwiseAbs().array() <= tolerances.array()).all();
+  }
+  if (simplex_small) return NelderMeadTermination::kSimplexTolerance;
+  if (summary.iterations >= options.max_iterations) return NelderMeadTermination::kMaxIterations;
+  if (options.max_evaluations > 0 && summary.evaluations >= options.max_evaluations)
+    return NelderMeadTermination::kMaxEvaluations;
+  if (stop_requested && stop_requested()) return NelderMeadTermination::kStopRequested;
+  return std::nullopt;
+}
+
+// Contracts the worst vertex towards the better of itself and its
+// reflection, or else shrinks every vertex towards the best one.
+void ContractOrShrink(const Eigen::VectorXd& centroid, const Eigen::VectorXd& reflected, double reflected_value,
+                      const CountedCost& evaluate, Simplex* simplex) {
+  std::vector<Eigen::VectorXd>& vertices = simplex->vertices;
+  std::vector<double>& values = simplex->values;
+  const std::size_t worst = simplex->Worst();
+  const bool outside = reflected_value < values[worst];
+  const Eigen::VectorXd contracted = outside ? Eigen::VectorXd(centroid + 0.5 * (reflected - centroid))
+                                             : Eigen::VectorXd(centroid + 0.5 * (vertices[worst] - centroid));
+  const double contracted_value = evaluate(contracted);
+  if (contracted_value < (outside ? reflected_value : values[worst])) {
+    simplex->Replace(worst, contracted, contracted_value);
+    return;
+  }
+  for (std::size_t v = 1; v <= worst; ++v) {
+    vertices[v] = vertices[0] + 0.5 * (vertices[v] - vertices[0]);
+    values[v] = evaluate(vertices[v]);
+  }
+}
+
+// One iteration on the sorted simplex: reflect the worst vertex through the
+// centroid of the others, then expand, accept, contract or shrink; sorts again.
+void Iterate(const CountedCost& evaluate, Simplex* simplex) {
+  const std::size_t worst = simplex->Worst();
+  const std::vector<Eigen::VectorXd>& vertices = simplex->vertices;
+  const std::vector<double>& values = simplex->values;
+  Eigen::VectorXd centroid = Eigen::VectorXd::Zero(vertices[0].size());
+  for (std::size_t v = 0; v < worst; ++v) centroid += vertices[v];
+  centroid /= static_cast<double>(worst);
+
+  const Eigen::VectorXd reflected = centroid + (centroid - vertices[worst]);
+  const double reflected_value = evaluate(reflected);
+  if (reflected_value < values[0]) {
+    const Eigen::VectorXd expanded = centroid + 2.0 * (centroid - vertices[worst]);
+    const double expanded_value = evaluate(expanded);
+    if (expanded_value < reflected_value) {
+      simplex->Replace(worst, expanded, expanded_value);
+    } else {
+      simplex->Replace(worst, reflected, reflected_value);
+    }
+  } else if (reflected_value < values[worst - 1]) {
+    simplex->Replace(worst, reflected, reflected_value);
+  } else {
+    ContractOrShrink(centroid, reflected, reflected_value, evaluate, simplex);
+  }
+  simplex->Sort();
+}
+
+}  // namespace
+
+NelderMeadSummary MinimiseNelderMead(const std::function<double(const Eigen::VectorXd&)>& cost,
+                                     const Eigen::VectorXd& steps, const Eigen::VectorXd& tolerances,
+                                     const NelderMeadOptions& options, Eigen::VectorXd* x,
+                                     const StopRequested& stop_requested) {
+  const Eigen::Index n = x->size();
+  NelderMeadSummary summary;
+  const CountedCost evaluate(cost, &summary.evaluations);
+
+  Simplex simplex{std::vector<Eigen::VectorXd>(static_cast<std::size_t>(n + 1), *x),
+                  std::vector<double>(static_cast<std::size_t>(n + 1))};
+  simplex.values[0] = evaluate(*x);
+  summary.initial_value = simplex.values[0];
+  summary.final_value = simplex.values[0];
+  if (!std::isfinite(simplex.values[0])) {
+    summary.termination = NelderMeadTermination::kNonFiniteCost;
+    return summary;
+  }
+  AddStepVertices(steps, evaluate, &simplex);
+  simplex.Sort();
   summary.termination = NelderMeadTermination::kMaxIterations;
-  const std::size_t worst = static_cast<std::size_t>(n);
   while (true) {
     ThrowIfInterrupted();  // an iteration costs at most n + 2 evaluations
-    // Convergence tests on the sorted simplex (vertex 0 is the best).
-    if (values[worst] - values[0] <= options.function_tolerance) {
-      summary.termination = NelderMeadTermination::kFunctionTolerance;
-      break;
-    }
-    bool simplex_small = true;
-    for (std::size_t v = 1; v <= worst && simplex_small; ++v) {
-      simplex_small = ((vertices[v] - vertices[0]).cwiseAbs().array() <= tolerances.array()).all();
-    }
-    if (simplex_small) {
-      summary.termination = NelderMeadTermination::kSimplexTolerance;
-      break;
-    }
-    if (summary.iterations >= options.max_iterations) {
-      summary.termination = NelderMeadTermination::kMaxIterations;
-      break;
-    }
-    if (evaluations_exhausted()) {
-      summary.termination = NelderMeadTermination::kMaxEvaluations;
-      break;
-    }
-    if (stop_requested && stop_requested()) {
-      summary.termination = NelderMeadTermination::kStopRequested;
+    if (const auto termination = Termination(simplex, tolerances, options, summary, stop_requested)) {
+      summary.termination = *termination;
       break;
     }
     ++summary.iterations;
-
-    Eigen::VectorXd centroid = Eigen::VectorXd::Zero(n);
-    for (std::size_t v = 0; v < worst; ++v) centroid += vertices[v];
-    centroid /= static_cast<double>(n);
-
-    const Eigen::VectorXd reflected = centroid + (centroid - vertices[worst]);
-    const double reflected_value = evaluate(reflected);
-    if (reflected_value < values[0]) {
-      const Eigen::VectorXd expanded = centroid + 2.0 * (centroid - vertices[worst]);
-      const double expanded_value = evaluate(expanded);
-      if (expanded_value < reflected_value) {
-        vertices[worst] = expanded;
-        values[worst] = expanded_value;
-      } else {
-        vertices[worst] = reflected;
-        values[worst] = reflected_value;
-      }
-    } else if (reflected_value < values[worst - 1]) {
-      vertices[worst] = reflected;
-      values[worst] = reflected_value;
-    } else {
-      // Contract towards the better of the worst vertex and its reflection.
-      const bool outside = reflected_value < values[worst];
-      const Eigen::VectorXd contracted = outside ? Eigen::VectorXd(centroid + 0.5 * (reflected - centroid))
-                                                 : Eigen::VectorXd(centroid + 0.5 * (vertices[worst] - centroid));
-      const double contracted_value = evaluate(contracted);
-      if (contracted_value < (outside ? reflected_value : values[worst])) {
-        vertices[worst] = contracted;
-        values[worst] = contracted_value;
-      } else {
-        // Shrink every vertex towards the best one.
-        for (std::size_t v = 1; v <= worst; ++v) {
-          vertices[v] = vertices[0] + 0.5 * (vertices[v] - vertices[0]);
-          values[v] = evaluate(vertices[v]);
-        }
-      }
-    }
-    sort_vertices();
+    Iterate(evaluate, &simplex);
   }
 
-  *x = vertices[0];
-  summary.final_value = values[0];
+  *x = simplex.vertices[0];
+  summary.final_value = simplex.values[0];
   return summary;
 }
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <map>
 
@@ -187,128 +188,179 @@ std::vector<SceneEvaluation> PairCost::EvaluateScenes(const Eigen::Isometry3d& T
   return evaluations;
 }
 
+namespace {
+
+// The used scenes of one image time, over the pairs: they share one motion correction.
+class CorrectionFrame {
+ public:
+  void Add(SceneSwathe* swathe, std::function<double()> cost) {
+    swathes_.push_back(swathe);
+    costs_.push_back(std::move(cost));
+  }
+  SwatheMotionCorrection Correction() const { return swathes_.front()->MotionCorrection(); }
+  void Apply(const SwatheMotionCorrection& correction) const {
+    for (SceneSwathe* swathe : swathes_) swathe->SetMotionCorrection(correction);
+  }
+  // The mean of the scenes' costs at their pairs' transforms.
+  double Cost() const {
+    double sum = 0.0;
+    for (const std::function<double()>& cost : costs_) sum += cost();
+    return sum / static_cast<double>(costs_.size());
+  }
+
+ private:
+  std::vector<SceneSwathe*> swathes_;
+  std::vector<std::function<double()>> costs_;  // per scene
+};
+
+// The drive's scale: one value in every frame, scored by the mean of all
+// frames' costs, so that it cannot follow each frame's own misfit the way a
+// per-frame scale does. Leaves every frame at the answer and *costs (per
+// frame) at their costs there.
+NelderMeadSummary EstimateDriveScale(const std::vector<const CorrectionFrame*>& frames,
+                                     const MotionCorrectionOptions& options, std::vector<double>* costs) {
+  const auto drive_cost = [&](const Eigen::VectorXd& candidate) {
+    if (std::abs(candidate[0]) > options.max_scale) return std::numeric_limits<double>::infinity();
+    tbb::parallel_for(std::size_t{0}, frames.size(), [&](std::size_t g) {
+      SwatheMotionCorrection correction = frames[g]->Correction();
+      correction.scale = candidate[0];
+      frames[g]->Apply(correction);
+      (*costs)[g] = frames[g]->Cost();
+    });
+    double sum = 0.0;
+    for (const double c : *costs) sum += c;
+    return sum / static_cast<double>(costs->size());
+  };
+  Eigen::VectorXd x(1);
+  x[0] = frames.front()->Correction().scale;
+  NelderMeadOptions nelder_mead;
+  nelder_mead.max_iterations = options.max_iterations;
+  const Eigen::VectorXd step = Eigen::VectorXd::Constant(1, options.initial_step_scale);
+  const NelderMeadSummary drive = MinimiseNelderMead(drive_cost, step, step * 0.01, nelder_mead, &x);
+  drive_cost(x);  // leave every frame at the answer
+  return drive;
+}
+
+// The terms each frame's correction is free to move, in the order scale,
+// turn a, turn b, roll, with their simplex steps and bounds.
+class FreeTerms {
+ public:
+  explicit FreeTerms(const MotionCorrectionOptions& options) {
+    terms_.reserve(4);
+    for (int term = 0; term < 4; ++term) {
+      const bool is_free = term == 0 ? options.scale : term == 3 ? options.roll : options.turn;
+      if (is_free) terms_.push_back(term);
+    }
+    const double rate = options.max_rate_rad_per_m, rate_step = options.initial_step_rate_rad_per_m;
+    const Eigen::Vector4d bounds(options.max_scale, rate, rate, rate);
+    const Eigen::Vector4d term_steps(options.initial_step_scale, rate_step, rate_step, rate_step);
+    steps_.resize(Count());
+    bounds_.resize(Count());
+    for (Eigen::Index i = 0; i < Count(); ++i) {
+      steps_[i] = term_steps[Term(i)];
+      bounds_[i] = bounds[Term(i)];
+    }
+  }
+  Eigen::Index Count() const { return static_cast<Eigen::Index>(terms_.size()); }
+  const Eigen::VectorXd& Steps() const { return steps_; }
+  bool InBounds(const Eigen::VectorXd& x) const { return !(x.array().abs() > bounds_.array()).any(); }
+  // x: the free terms of all four.
+  Eigen::VectorXd From(const Eigen::Vector4d& terms) const {
+    Eigen::VectorXd x(Count());
+    for (Eigen::Index i = 0; i < Count(); ++i) x[i] = terms[Term(i)];
+    return x;
+  }
+  // The free terms from x, the others as they were in `base`.
+  SwatheMotionCorrection Correction(const Eigen::VectorXd& x, const Eigen::Vector4d& base) const {
+    Eigen::Vector4d terms = base;
+    for (std::size_t i = 0; i < terms_.size(); ++i) terms[terms_[i]] = x[static_cast<Eigen::Index>(i)];
+    return SwatheMotionCorrection{terms[0], terms[1], terms[2], terms[3]};
+  }
+
+ private:
+  int Term(Eigen::Index i) const { return terms_[static_cast<std::size_t>(i)]; }
+  std::vector<int> terms_;
+  Eigen::VectorXd steps_, bounds_;
+};
+
+struct FrameOutcome {
+  int evaluations = 0;
+  double before = 0.0, after = 0.0;
+};
+
+// One frame's free terms by the simplex, from its correction before; leaves the frame at the answer.
+FrameOutcome CorrectFrame(const CorrectionFrame& frame, const FreeTerms& free_terms,
+                          const MotionCorrectionOptions& options) {
+  const SwatheMotionCorrection start = frame.Correction();
+  const Eigen::Vector4d start_terms(start.scale, start.turn_a_rad_per_m, start.turn_b_rad_per_m, start.roll_rad_per_m);
+  Eigen::VectorXd x = free_terms.From(start_terms);
+  NelderMeadOptions nelder_mead;
+  nelder_mead.max_iterations = options.max_iterations;
+  const auto cost = [&](const Eigen::VectorXd& candidate) {
+    if (!free_terms.InBounds(candidate)) {
+      return std::numeric_limits<double>::infinity();  // outside the bounds: worse than any cost
+    }
+    frame.Apply(free_terms.Correction(candidate, start_terms));
+    return frame.Cost();
+  };
+  const Eigen::VectorXd& steps = free_terms.Steps();
+  const NelderMeadSummary summary = MinimiseNelderMead(cost, steps, steps * 0.01, nelder_mead, &x);
+  frame.Apply(free_terms.Correction(x, start_terms));
+  return {summary.evaluations, summary.initial_value, summary.final_value};
+}
+
+// The frames' mean costs before and after; the drive's cost before instead, when it was estimated.
+void AddOutcomes(const std::vector<FrameOutcome>& outcomes, double drive_cost_before,
+                 MotionCorrectionSummary* summary) {
+  for (const FrameOutcome& outcome : outcomes) {
+    ++summary->frames;
+    summary->evaluations += outcome.evaluations;
+    summary->cost_before += outcome.before;
+    summary->cost_after += outcome.after;
+  }
+  if (summary->frames > 0) {
+    summary->cost_before /= summary->frames;
+    summary->cost_after /= summary->frames;
+  }
+  if (!std::isnan(drive_cost_before)) summary->cost_before = drive_cost_before;
+}
+
+}  // namespace
+
 MotionCorrectionSummary EstimateMotionCorrections(const std::vector<PairCost*>& pairs,
                                                   const std::vector<Eigen::Isometry3d>& T_camera_lidar,
                                                   const MotionCorrectionOptions& options) {
-  struct Member {
-    PairCost* pair;
-    std::size_t scene;
-    const Eigen::Isometry3d* T_camera_lidar;
-  };
   // The used scenes of each image time, over the pairs.
-  std::map<TimeUs, std::vector<Member>> frames;
+  std::map<TimeUs, CorrectionFrame> frames_by_time;
   for (std::size_t p = 0; p < pairs.size() && p < T_camera_lidar.size(); ++p) {
-    for (const std::size_t s : pairs[p]->used_)
-      frames[pairs[p]->scenes_[s].ImageTime()].push_back({pairs[p], s, &T_camera_lidar[p]});
+    PairCost* pair = pairs[p];
+    const Eigen::Isometry3d* T = &T_camera_lidar[p];
+    for (const std::size_t s : pair->used_) {
+      frames_by_time[pair->scenes_[s].ImageTime()].Add(&pair->scenes_[s],
+                                                       [pair, s, T] { return pair->SceneCost(s, *T, nullptr); });
+    }
   }
-  std::vector<const std::vector<Member>*> groups;
-  for (const auto& [time, members] : frames) groups.push_back(&members);
-  const auto apply = [](const std::vector<Member>& members, const SwatheMotionCorrection& correction) {
-    for (const Member& member : members) member.pair->scenes_[member.scene].SetMotionCorrection(correction);
-  };
-
-  // The free terms, in the order scale, turn a, turn b, roll.
-  std::vector<int> free_terms;
-  free_terms.reserve(4);
-  for (int term = 0; term < 4; ++term) {
-    const bool free = term == 0 ? options.scale : term == 3 ? options.roll : options.turn;
-    if (free) free_terms.push_back(term);
-  }
-  const double rate = options.max_rate_rad_per_m, rate_step = options.initial_step_rate_rad_per_m;
-  const Eigen::Vector4d bounds(options.max_scale, rate, rate, rate);
-  const Eigen::Vector4d term_steps(options.initial_step_scale, rate_step, rate_step, rate_step);
-  const auto n = static_cast<Eigen::Index>(free_terms.size());
-  Eigen::VectorXd steps(n), free_bounds(n);
-  for (Eigen::Index i = 0; i < n; ++i) {
-    steps[i] = term_steps[free_terms[static_cast<std::size_t>(i)]];
-    free_bounds[i] = bounds[free_terms[static_cast<std::size_t>(i)]];
-  }
-  // The free terms from x, the others as they were (base: the frame's correction before).
-  const auto from_vector = [&](const Eigen::VectorXd& x, const Eigen::Vector4d& base) {
-    Eigen::Vector4d terms = base;
-    for (std::size_t i = 0; i < free_terms.size(); ++i) terms[free_terms[i]] = x[static_cast<Eigen::Index>(i)];
-    return SwatheMotionCorrection{terms[0], terms[1], terms[2], terms[3]};
-  };
-
-  const auto frame_cost = [](const std::vector<Member>& members) {
-    double sum = 0.0;
-    for (const Member& member : members) sum += member.pair->SceneCost(member.scene, *member.T_camera_lidar, nullptr);
-    return sum / static_cast<double>(members.size());
-  };
+  std::vector<const CorrectionFrame*> frames;
+  for (const auto& [time, frame] : frames_by_time) frames.push_back(&frame);
 
   MotionCorrectionSummary summary;
-  // The drive's scale first: one value in every frame, scored by the mean of
-  // all frames' costs, so that it cannot follow each frame's own misfit the
-  // way a per-frame scale does.
   double drive_cost_before = std::numeric_limits<double>::quiet_NaN();
-  std::vector<double> costs(groups.size());  // each frame's, at the drive's scale last tried
-  if (options.drive_scale && !groups.empty()) {
-    const auto drive_cost = [&](const Eigen::VectorXd& candidate) {
-      if (std::abs(candidate[0]) > options.max_scale) return std::numeric_limits<double>::infinity();
-      tbb::parallel_for(std::size_t{0}, groups.size(), [&](std::size_t g) {
-        const std::vector<Member>& members = *groups[g];
-        SwatheMotionCorrection correction = members.front().pair->scenes_[members.front().scene].MotionCorrection();
-        correction.scale = candidate[0];
-        apply(members, correction);
-        costs[g] = frame_cost(members);
-      });
-      double sum = 0.0;
-      for (const double c : costs) sum += c;
-      return sum / static_cast<double>(costs.size());
-    };
-    const std::vector<Member>& first = *groups.front();
-    Eigen::VectorXd x(1);
-    x[0] = first.front().pair->scenes_[first.front().scene].MotionCorrection().scale;
-    NelderMeadOptions nelder_mead;
-    nelder_mead.max_iterations = options.max_iterations;
-    const Eigen::VectorXd step = Eigen::VectorXd::Constant(1, options.initial_step_scale);
-    const NelderMeadSummary drive = MinimiseNelderMead(drive_cost, step, step * 0.01, nelder_mead, &x);
-    drive_cost(x);  // leave every frame at the answer
+  std::vector<double> costs(frames.size());  // each frame's, at the drive's scale last tried
+  if (options.drive_scale && !frames.empty()) {
+    const NelderMeadSummary drive = EstimateDriveScale(frames, options, &costs);
     summary.drive_evaluations = drive.evaluations;
     drive_cost_before = drive.initial_value;
   }
 
-  struct FrameOutcome {
-    int evaluations = 0;
-    double before = 0.0, after = 0.0;
-  };
-  std::vector<FrameOutcome> outcomes(groups.size());
-  if (n > 0) {
-    tbb::parallel_for(std::size_t{0}, groups.size(), [&](std::size_t g) {
-      const std::vector<Member>& members = *groups[g];
-      const SwatheMotionCorrection start = members.front().pair->scenes_[members.front().scene].MotionCorrection();
-      const Eigen::Vector4d start_terms(start.scale, start.turn_a_rad_per_m, start.turn_b_rad_per_m,
-                                        start.roll_rad_per_m);
-      Eigen::VectorXd x(n);
-      for (Eigen::Index i = 0; i < n; ++i) x[i] = start_terms[free_terms[static_cast<std::size_t>(i)]];
-      NelderMeadOptions nelder_mead;
-      nelder_mead.max_iterations = options.max_iterations;
-      const auto cost = [&](const Eigen::VectorXd& candidate) {
-        if ((candidate.array().abs() > free_bounds.array()).any()) {
-          return std::numeric_limits<double>::infinity();  // outside the bounds: worse than any cost
-        }
-        apply(members, from_vector(candidate, start_terms));
-        return frame_cost(members);
-      };
-      const NelderMeadSummary frame = MinimiseNelderMead(cost, steps, steps * 0.01, nelder_mead, &x);
-      apply(members, from_vector(x, start_terms));
-      outcomes[g] = {frame.evaluations, frame.initial_value, frame.final_value};
-    });
+  const FreeTerms free_terms(options);
+  std::vector<FrameOutcome> outcomes(frames.size());
+  if (free_terms.Count() > 0) {
+    tbb::parallel_for(std::size_t{0}, frames.size(),
+                      [&](std::size_t g) { outcomes[g] = CorrectFrame(*frames[g], free_terms, options); });
   } else {  // the drive's scale alone: the frames' costs at its answer, from its last evaluation
-    for (std::size_t g = 0; g < groups.size(); ++g) outcomes[g].before = outcomes[g].after = costs[g];
+    for (std::size_t g = 0; g < frames.size(); ++g) outcomes[g].before = outcomes[g].after = costs[g];
   }
-
-  for (const FrameOutcome& outcome : outcomes) {
-    ++summary.frames;
-    summary.evaluations += outcome.evaluations;
-    summary.cost_before += outcome.before;
-    summary.cost_after += outcome.after;
-  }
-  if (summary.frames > 0) {
-    summary.cost_before /= summary.frames;
-    summary.cost_after /= summary.frames;
-  }
-  if (!std::isnan(drive_cost_before)) summary.cost_before = drive_cost_before;
+  AddOutcomes(outcomes, drive_cost_before, &summary);
   for (const PairCost* pair : pairs)
     for (const SceneSwathe& scene : pair->scenes_) summary.corrections.push_back(scene.MotionCorrection());
   return summary;

@@ -153,6 +153,174 @@ std::vector<TimeUs> ShortSwathe(const Trajectory& trajectory, const std::vector<
   return {};
 }
 
+// How far a swathe reaches, in metres of travel before and after the image.
+struct SwatheReach {
+  double before_m = 0.0;
+  double after_m = 0.0;
+};
+
+// What every (camera, lidar) pair's selection reads.
+struct SelectionContext {
+  const Trajectory& trajectory;
+  const SceneOptions& options;
+  SwatheReach reach;
+  bool static_dataset = false;
+  double total_m = 0.0;  // the trajectory's length
+};
+
+const std::vector<TimeUs>& TimesOf(const std::map<std::string, std::vector<TimeUs>>& times_us,
+                                   const std::string& sensor) {
+  static const std::vector<TimeUs> kNoTimes;
+  const auto it = times_us.find(sensor);
+  return it == times_us.end() ? kNoTimes : it->second;
+}
+
+// A camera's frames with a pose, with their distance travelled.
+struct CameraFrames {
+  std::vector<TimeUs> eligible_times;  // with a whole swathe at more than the minimum speed
+  std::vector<double> eligible_distances;
+  // Frames with a pose that cannot have a whole swathe (standing, or too
+  // near the drive's ends): a 3D lidar still sees the scene from there.
+  std::vector<TimeUs> short_times;
+  std::vector<double> short_distances;
+};
+
+CameraFrames ClassifyFrames(const SelectionContext& context, const std::vector<TimeUs>& image_times,
+                            CameraSelectionReport* report) {
+  const Trajectory& trajectory = context.trajectory;
+  CameraFrames frames;
+  for (const TimeUs t : image_times) {
+    ++report->images;
+    if (!trajectory.PoseAt(t)) {
+      ++report->skipped_no_pose;
+      continue;
+    }
+    const double d = trajectory.DistanceAt(t);
+    if (!context.static_dataset) {
+      if (SpeedAt(trajectory, t, context.options.speed_window_s) < context.options.min_speed_mps) {
+        ++report->skipped_standing_still;
+        frames.short_times.push_back(t);
+        frames.short_distances.push_back(d);
+        continue;
+      }
+      if (d - context.reach.before_m < 0.0 || d + context.reach.after_m > context.total_m) {
+        ++report->skipped_window_outside;
+        frames.short_times.push_back(t);
+        frames.short_distances.push_back(d);
+        continue;
+      }
+    }
+    frames.eligible_times.push_back(t);
+    frames.eligible_distances.push_back(d);
+  }
+  return frames;
+}
+
+// Distance grows with time, so the window is a contiguous run of scans
+// around t_k: walk back while within before_m, forward while within after_m.
+std::vector<TimeUs> ContiguousSwathe(const Trajectory& trajectory, const std::vector<TimeUs>& scan_times, TimeUs t_k,
+                                     double d_k, const SwatheReach& reach) {
+  const auto first_after = std::lower_bound(scan_times.begin(), scan_times.end(), t_k);
+  auto begin = first_after;
+  if (reach.before_m > 0.0) {
+    while (begin != scan_times.begin() && trajectory.DistanceAt(*(begin - 1)) >= d_k - reach.before_m &&
+           *(begin - 1) >= trajectory.times_us().front()) {
+      --begin;
+    }
+  }
+  auto end = first_after;
+  if (reach.after_m > 0.0) {
+    while (end != scan_times.end() && trajectory.DistanceAt(*end) <= d_k + reach.after_m &&
+           *end <= trajectory.times_us().back()) {
+      ++end;
+    }
+  } else {
+    // backward only: include a scan taken exactly at t_k
+    while (end != scan_times.end() && *end == t_k) ++end;
+  }
+  return std::vector<TimeUs>(begin, end);
+}
+
+// The scan times of the scene at image time t_k (d_k m travelled), thinned to the cap.
+std::vector<TimeUs> SceneWindow(const SelectionContext& context, const std::vector<TimeUs>& scan_times, TimeUs t_k,
+                                double d_k, bool short_swathe) {
+  std::vector<TimeUs> window;
+  if (context.static_dataset) {
+    const auto range = std::equal_range(scan_times.begin(), scan_times.end(), t_k);
+    window.assign(range.first, range.second);
+  } else if (short_swathe) {
+    const SwatheReach& reach = context.reach;
+    window = ShortSwathe(context.trajectory, scan_times, t_k, d_k - reach.before_m, d_k + reach.after_m);
+  } else {
+    window = ContiguousSwathe(context.trajectory, scan_times, t_k, d_k, context.reach);
+  }
+  const int max_scans = context.options.max_scans_per_scene;
+  if (max_scans > 0 && window.size() > static_cast<std::size_t>(max_scans)) {
+    std::vector<TimeUs> thinned;
+    for (const std::size_t i : ThinEvenly(window.size(), static_cast<std::size_t>(max_scans)))
+      thinned.push_back(window[i]);
+    window.swap(thinned);
+  }
+  return window;
+}
+
+// The scans of `window` with a pose, relative to the image's base pose.
+void AddScans(const SelectionContext& context, const std::vector<TimeUs>& window, Scene* scene,
+              LidarSelectionReport* report) {
+  const Eigen::Isometry3d T_world_basek = *context.trajectory.PoseAt(scene->image_t_us);
+  for (const TimeUs t_j : window) {
+    const std::optional<Eigen::Isometry3d> T_world_basej = context.trajectory.PoseAt(t_j);
+    if (!T_world_basej) {
+      ++report->scans_without_pose;
+      continue;
+    }
+    Eigen::Isometry3d T_basek_basej = T_world_basek.inverse() * *T_world_basej;
+    // A relative position scales with the distances.
+    T_basek_basej.translation() *= 1.0 + context.options.odometry_scale;
+    scene->scans.push_back({t_j, T_basek_basej});
+  }
+}
+
+// The scenes of one (camera, lidar) pair, appended to *scenes; `chosen`
+// indexes the camera's eligible frames.
+LidarSelectionReport SelectPairScenes(const SelectionContext& context, const std::string& camera,
+                                      const LidarInfo& lidar, const std::vector<TimeUs>& scan_times,
+                                      const CameraFrames& frames, const std::vector<std::size_t>& chosen,
+                                      std::vector<Scene>* scenes) {
+  LidarSelectionReport report;
+  report.camera = camera;
+  report.lidar = lidar.name;
+  // A 3D lidar on a recording without one whole swathe (standing, or
+  // shorter than the swathe) takes the frames there are, each with the
+  // scans of the travel there is: a 3D scan is a scene by itself.
+  const bool short_swathes =
+      lidar.kind == LidarKind::k3d && frames.eligible_times.empty() && !frames.short_times.empty();
+  const std::vector<TimeUs>& frame_times = short_swathes ? frames.short_times : frames.eligible_times;
+  const std::vector<double>& frame_distances = short_swathes ? frames.short_distances : frames.eligible_distances;
+  const std::size_t wanted = static_cast<std::size_t>(context.options.scenes_per_camera);
+  // Spread by time: standing frames share one distance.
+  const std::vector<std::size_t> indices =
+      short_swathes ? ThinEvenly(frames.short_times.size(), std::min(frames.short_times.size(), wanted)) : chosen;
+  for (const std::size_t index : indices) {
+    Scene scene;
+    scene.camera = camera;
+    scene.lidar = lidar.name;
+    scene.image_t_us = frame_times[index];
+    scene.distance_m = frame_distances[index];
+    AddScans(context, SceneWindow(context, scan_times, scene.image_t_us, scene.distance_m, short_swathes), &scene,
+             &report);
+    if (scene.scans.empty()) {
+      ++report.frames_without_scans;
+      continue;
+    }
+    ++report.scenes;
+    if (short_swathes) ++report.short_swathe_scenes;
+    report.scans_used += static_cast<int>(scene.scans.size());
+    scenes->push_back(std::move(scene));
+  }
+  return report;
+}
+
 }  // namespace
 
 SceneSelection SelectScenes(const Rig& rig, const Trajectory& trajectory,
@@ -162,137 +330,27 @@ SceneSelection SelectScenes(const Rig& rig, const Trajectory& trajectory,
   SceneSelection selection;
   if (trajectory.empty()) return selection;
   selection.static_dataset = trajectory.size() == 1;
-  const double total_m = trajectory.TotalDistance();
   selection.swathe_length_m = options.swathe_length_m;
+  const double total_m = trajectory.TotalDistance();
   selection.trajectory_length_m = total_m;
   const double length_m = options.swathe_length_m;
-  const double before_m = options.direction == SwatheDirection::kForward ? 0.0 : length_m;
-  const double after_m = options.direction == SwatheDirection::kBackward ? 0.0 : length_m;
+  SelectionContext context{trajectory, options, {}, selection.static_dataset, total_m};
+  context.reach.before_m = options.direction == SwatheDirection::kForward ? 0.0 : length_m;
+  context.reach.after_m = options.direction == SwatheDirection::kBackward ? 0.0 : length_m;
 
   for (const CameraInfo& camera : rig.cameras) {
     CameraSelectionReport camera_report;
     camera_report.camera = camera.name;
-    const auto images_it = image_times_us.find(camera.name);
-    std::vector<TimeUs> eligible_times;
-    std::vector<double> eligible_distances;
-    // Frames with a pose that cannot have a whole swathe (standing, or too
-    // near the drive's ends): a 3D lidar still sees the scene from there.
-    std::vector<TimeUs> short_times;
-    std::vector<double> short_distances;
-    if (images_it != image_times_us.end()) {
-      for (const TimeUs t : images_it->second) {
-        ++camera_report.images;
-        if (!trajectory.PoseAt(t)) {
-          ++camera_report.skipped_no_pose;
-          continue;
-        }
-        const double d = trajectory.DistanceAt(t);
-        if (!selection.static_dataset) {
-          if (SpeedAt(trajectory, t, options.speed_window_s) < options.min_speed_mps) {
-            ++camera_report.skipped_standing_still;
-            short_times.push_back(t);
-            short_distances.push_back(d);
-            continue;
-          }
-          if (d - before_m < 0.0 || d + after_m > total_m) {
-            ++camera_report.skipped_window_outside;
-            short_times.push_back(t);
-            short_distances.push_back(d);
-            continue;
-          }
-        }
-        eligible_times.push_back(t);
-        eligible_distances.push_back(d);
-      }
-    }
-    camera_report.eligible = static_cast<int>(eligible_times.size());
+    const CameraFrames frames = ClassifyFrames(context, TimesOf(image_times_us, camera.name), &camera_report);
+    camera_report.eligible = static_cast<int>(frames.eligible_times.size());
     const std::vector<std::size_t> chosen =
-        SpreadByDistance(eligible_distances, static_cast<std::size_t>(options.scenes_per_camera));
+        SpreadByDistance(frames.eligible_distances, static_cast<std::size_t>(options.scenes_per_camera));
     camera_report.selected = static_cast<int>(chosen.size());
     selection.cameras.push_back(camera_report);
 
     for (const LidarInfo& lidar : rig.lidars) {
-      LidarSelectionReport pair_report;
-      pair_report.camera = camera.name;
-      pair_report.lidar = lidar.name;
-      const auto scans_it = scan_times_us.find(lidar.name);
-      static const std::vector<TimeUs> kNoScans;
-      const std::vector<TimeUs>& scan_times = scans_it == scan_times_us.end() ? kNoScans : scans_it->second;
-      // A 3D lidar on a recording without one whole swathe (standing, or
-      // shorter than the swathe) takes the frames there are, each with the
-      // scans of the travel there is: a 3D scan is a scene by itself.
-      const bool short_swathes = lidar.kind == LidarKind::k3d && eligible_times.empty() && !short_times.empty();
-      const std::vector<TimeUs>& frame_times = short_swathes ? short_times : eligible_times;
-      const std::vector<double>& frame_distances = short_swathes ? short_distances : eligible_distances;
-      const std::size_t wanted = static_cast<std::size_t>(options.scenes_per_camera);
-      // Spread by time: standing frames share one distance.
-      const std::vector<std::size_t> frames =
-          short_swathes ? ThinEvenly(short_times.size(), std::min(short_times.size(), wanted)) : chosen;
-      for (const std::size_t index : frames) {
-        const TimeUs t_k = frame_times[index];
-        const double d_k = frame_distances[index];
-        const Eigen::Isometry3d T_world_basek = *trajectory.PoseAt(t_k);
-        Scene scene;
-        scene.camera = camera.name;
-        scene.lidar = lidar.name;
-        scene.image_t_us = t_k;
-        scene.distance_m = d_k;
-        std::vector<TimeUs> window;
-        if (selection.static_dataset) {
-          const auto range = std::equal_range(scan_times.begin(), scan_times.end(), t_k);
-          window.assign(range.first, range.second);
-        } else if (short_swathes) {
-          window = ShortSwathe(trajectory, scan_times, t_k, d_k - before_m, d_k + after_m);
-        } else {
-          // Distance grows with time, so the window is a contiguous run of scans
-          // around t_k: walk back while within before_m, forward while within after_m.
-          const auto first_after = std::lower_bound(scan_times.begin(), scan_times.end(), t_k);
-          auto begin = first_after;
-          if (before_m > 0.0) {
-            while (begin != scan_times.begin() && trajectory.DistanceAt(*(begin - 1)) >= d_k - before_m &&
-                   *(begin - 1) >= trajectory.times_us().front()) {
-              --begin;
-            }
-          }
-          auto end = first_after;
-          if (after_m > 0.0) {
-            while (end != scan_times.end() && trajectory.DistanceAt(*end) <= d_k + after_m &&
-                   *end <= trajectory.times_us().back()) {
-              ++end;
-            }
-          } else {
-            // backward only: include a scan taken exactly at t_k
-            while (end != scan_times.end() && *end == t_k) ++end;
-          }
-          window.assign(begin, end);
-        }
-        if (options.max_scans_per_scene > 0 && window.size() > static_cast<std::size_t>(options.max_scans_per_scene)) {
-          std::vector<TimeUs> thinned;
-          for (const std::size_t i : ThinEvenly(window.size(), static_cast<std::size_t>(options.max_scans_per_scene)))
-            thinned.push_back(window[i]);
-          window.swap(thinned);
-        }
-        for (const TimeUs t_j : window) {
-          const std::optional<Eigen::Isometry3d> T_world_basej = trajectory.PoseAt(t_j);
-          if (!T_world_basej) {
-            ++pair_report.scans_without_pose;
-            continue;
-          }
-          Eigen::Isometry3d T_basek_basej = T_world_basek.inverse() * *T_world_basej;
-          // A relative position scales with the distances.
-          T_basek_basej.translation() *= 1.0 + options.odometry_scale;
-          scene.scans.push_back({t_j, T_basek_basej});
-        }
-        if (scene.scans.empty()) {
-          ++pair_report.frames_without_scans;
-          continue;
-        }
-        ++pair_report.scenes;
-        if (short_swathes) ++pair_report.short_swathe_scenes;
-        pair_report.scans_used += static_cast<int>(scene.scans.size());
-        selection.scenes.push_back(std::move(scene));
-      }
-      selection.pairs.push_back(pair_report);
+      selection.pairs.push_back(SelectPairScenes(context, camera.name, lidar, TimesOf(scan_times_us, lidar.name),
+                                                 frames, chosen, &selection.scenes));
     }
   }
   return selection;

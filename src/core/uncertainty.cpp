@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <map>
 #include <memory>
 
@@ -98,6 +99,100 @@ Matrix6d TupleJacobian(const Eigen::Isometry3d& T_base_lidar) {
   return jacobian;
 }
 
+// Hessian of F in search units by central differences with unit steps; f0 = F(0).
+Matrix6d UnitHessian(const std::function<double(const Vector6d&)>& F, double f0) {
+  Matrix6d hessian;
+  for (int i = 0; i < 6; ++i) {
+    const Vector6d e = Vector6d::Unit(i);
+    hessian(i, i) = F(e) - 2.0 * f0 + F(-e);
+  }
+  // Off-diagonals from the points already evaluated plus two per pair (30 instead of 60 evaluations):
+  // F(ei+ej) + F(-ei-ej) = 2 F0 + Hii + Hjj + 2 Hij + O(h^4).
+  for (int i = 0; i < 6; ++i) {
+    for (int j = i + 1; j < 6; ++j) {
+      const Vector6d ei = Vector6d::Unit(i), ej = Vector6d::Unit(j);
+      hessian(i, j) = hessian(j, i) =
+          (F(ei + ej) + F(-ei - ej) - 2.0 * f0 - hessian(i, i) - hessian(j, j)) / 2.0;
+    }
+  }
+  return hessian;
+}
+
+// Along one side of a direction: where the paired rise first exceeds k
+// standard errors (-1: nowhere), and the farthest step still within k.
+struct SideCrossing {
+  double crossing = -1.0;
+  double farthest_indistinct = 0.0;
+};
+
+// The joint cost around the estimate in search units: x (dimensionless), d = scale .* x.
+class RiseSearch {
+ public:
+  RiseSearch(UnitCosts* costs, const std::map<TimeUs, double>& at_estimate, const Eigen::Isometry3d& T_base_lidar,
+             const Vector6d& scale, const UncertaintyOptions& options)
+      : costs_(costs), at_estimate_(at_estimate), T_base_lidar_(T_base_lidar), scale_(scale),
+        k_(options.significance) {
+    for (double a = 0.25; a <= options.max_search_units + 1e-9; a *= 2.0) steps_.push_back(a);
+  }
+
+  double F(const Vector6d& x) { return Total(costs_->Evaluate(Moved(T_base_lidar_, scale_.cwiseProduct(x)))); }
+
+  // Along the unit eigenvector x, both sides: the step where the paired rise exceeds k standard errors.
+  UncertainDirection Along(const Vector6d& x, double curvature) {
+    UncertainDirection direction;
+    direction.direction = scale_.cwiseProduct(x);
+    direction.curvature = curvature;
+    const SideCrossing positive = Side(x, 1.0), negative = Side(x, -1.0);
+    if (positive.crossing > 0.0 && negative.crossing > 0.0) {
+      direction.determined = true;
+      direction.sigma_units = 0.5 * (positive.crossing + negative.crossing) / (2.0 * k_);
+    } else {
+      direction.flat_units = std::max(positive.farthest_indistinct, negative.farthest_indistinct);
+    }
+    return direction;
+  }
+
+ private:
+  // The search goes on past the first significant rise: a cost that comes
+  // back within k standard errors further out means another basin the data
+  // cannot tell from this one, and the side counts as without a crossing.
+  SideCrossing Side(const Vector6d& x, double sign) {
+    SideCrossing side;
+    double previous_step = 0.0, previous_ratio = 0.0;
+    for (const double a : steps_) {
+      const PairedChange change =
+          Compare(at_estimate_, costs_->Evaluate(Moved(T_base_lidar_, scale_.cwiseProduct(sign * a * x))));
+      const double ratio = change.standard_error > 0.0 ? change.change / change.standard_error
+                                                       : (change.change > 0.0 ? 1e9 : 0.0);
+      if (ratio <= k_) side.farthest_indistinct = a;
+      if (ratio > k_ && side.crossing < 0.0) {
+        const double fraction = (k_ - previous_ratio) / (ratio - previous_ratio);
+        side.crossing = previous_step + std::clamp(fraction, 0.0, 1.0) * (a - previous_step);
+      }
+      previous_step = a;
+      previous_ratio = std::max(0.0, ratio);  // below zero: the cost fell; the rise starts from here
+    }
+    // Indistinct beyond the first crossing: no crossing on this side after all.
+    if (side.crossing > 0.0 && side.farthest_indistinct > side.crossing) side.crossing = -1.0;
+    return side;
+  }
+
+  UnitCosts* costs_;
+  const std::map<TimeUs, double>& at_estimate_;
+  const Eigen::Isometry3d& T_base_lidar_;
+  const Vector6d& scale_;
+  double k_;                   // significance: standard errors of a significant rise
+  std::vector<double> steps_;  // search steps, units
+};
+
+std::string WhyUndetermined(const std::vector<UncertainDirection>& directions, const UncertaintyOptions& options) {
+  const auto open = std::count_if(directions.begin(), directions.end(),
+                                  [](const UncertainDirection& d) { return !d.determined; });
+  return fmt::format("the cost does not rise significantly along {} of 6 directions within {} cm / {} deg", open,
+                     100.0 * options.max_search_units * options.unit_translation_m,
+                     options.max_search_units * options.unit_rotation_rad * 180.0 / M_PI);
+}
+
 }  // namespace
 
 bool UncertaintyOptions::IsValid(std::string* why) const {
@@ -136,78 +231,22 @@ LidarUncertainty EstimateLidarUncertainty(const std::vector<const PairCost*>& pa
   // Work in units: x (dimensionless), d = scale .* x.
   Vector6d scale;
   scale << Eigen::Vector3d::Constant(options.unit_translation_m), Eigen::Vector3d::Constant(options.unit_rotation_rad);
-  const auto F = [&](const Vector6d& x) { return Total(costs.Evaluate(Moved(T_base_lidar, scale.cwiseProduct(x)))); };
-
-  // Hessian of F in units, central differences with unit steps.
-  const double f0 = Total(at_estimate);
-  Matrix6d hessian;
-  for (int i = 0; i < 6; ++i) {
-    const Vector6d e = Vector6d::Unit(i);
-    hessian(i, i) = F(e) - 2.0 * f0 + F(-e);
-  }
-  // Off-diagonals from the points already evaluated plus two per pair (30 instead of 60 evaluations):
-  // F(ei+ej) + F(-ei-ej) = 2 F0 + Hii + Hjj + 2 Hij + O(h^4).
-  for (int i = 0; i < 6; ++i) {
-    for (int j = i + 1; j < 6; ++j) {
-      const Vector6d ei = Vector6d::Unit(i), ej = Vector6d::Unit(j);
-      hessian(i, j) = hessian(j, i) =
-          (F(ei + ej) + F(-ei - ej) - 2.0 * f0 - hessian(i, i) - hessian(j, j)) / 2.0;
-    }
-  }
+  RiseSearch search(&costs, at_estimate, T_base_lidar, scale, options);
+  const Matrix6d hessian = UnitHessian([&](const Vector6d& x) { return search.F(x); }, Total(at_estimate));
   const Eigen::SelfAdjointEigenSolver<Matrix6d> eigen(hessian);
 
-  // Along each eigenvector: the step where the paired rise exceeds k standard errors, both sides.
-  const double k = options.significance;
-  std::vector<double> steps;
-  for (double a = 0.25; a <= options.max_search_units + 1e-9; a *= 2.0) steps.push_back(a);
   Matrix6d covariance_units = Matrix6d::Zero();
   bool all_determined = true;
   for (int v = 0; v < 6; ++v) {
-    UncertainDirection direction;
     const Vector6d x = eigen.eigenvectors().col(v);
-    direction.direction = scale.cwiseProduct(x);
-    direction.curvature = eigen.eigenvalues()[v];
-    double crossing[2] = {-1.0, -1.0};
-    // The search goes on past the first significant rise: a cost that comes
-    // back within k standard errors further out means another basin the data
-    // cannot tell from this one, and the direction counts as undetermined.
-    double farthest_indistinct[2] = {0.0, 0.0};
-    for (int side = 0; side < 2; ++side) {
-      const double sign = side == 0 ? 1.0 : -1.0;
-      double previous_step = 0.0, previous_ratio = 0.0;
-      for (const double a : steps) {
-        const PairedChange change =
-            Compare(at_estimate, costs.Evaluate(Moved(T_base_lidar, scale.cwiseProduct(sign * a * x))));
-        const double ratio = change.standard_error > 0.0 ? change.change / change.standard_error
-                                                         : (change.change > 0.0 ? 1e9 : 0.0);
-        if (ratio <= k) farthest_indistinct[side] = a;
-        if (ratio > k && crossing[side] < 0.0) {
-          const double fraction = (k - previous_ratio) / (ratio - previous_ratio);
-          crossing[side] = previous_step + std::clamp(fraction, 0.0, 1.0) * (a - previous_step);
-        }
-        previous_step = a;
-        previous_ratio = std::max(0.0, ratio);  // below zero: the cost fell; the rise starts from here
-      }
-      // Indistinct beyond the first crossing: no crossing on this side after all.
-      if (crossing[side] > 0.0 && farthest_indistinct[side] > crossing[side]) crossing[side] = -1.0;
-    }
-    if (crossing[0] > 0.0 && crossing[1] > 0.0) {
-      direction.determined = true;
-      direction.sigma_units = 0.5 * (crossing[0] + crossing[1]) / (2.0 * k);
-      covariance_units += direction.sigma_units * direction.sigma_units * x * x.transpose();
-    } else {
-      all_determined = false;
-      direction.flat_units = std::max(farthest_indistinct[0], farthest_indistinct[1]);
-    }
+    const UncertainDirection direction = search.Along(x, eigen.eigenvalues()[v]);
+    if (direction.determined) covariance_units += direction.sigma_units * direction.sigma_units * x * x.transpose();
+    else all_determined = false;
     result.directions.push_back(direction);
   }
   result.evaluations = costs.Evaluations();
   if (!all_determined) {
-    const auto open = std::count_if(result.directions.begin(), result.directions.end(),
-                                    [](const UncertainDirection& d) { return !d.determined; });
-    result.why = fmt::format("the cost does not rise significantly along {} of 6 directions within {} cm / {} deg",
-                             open, 100.0 * options.max_search_units * options.unit_translation_m,
-                             options.max_search_units * options.unit_rotation_rad * 180.0 / M_PI);
+    result.why = WhyUndetermined(result.directions, options);
     return result;
   }
   result.determined = true;

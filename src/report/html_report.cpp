@@ -143,82 +143,71 @@ std::string SettingsDetails(const std::map<std::string, std::string>& settings) 
 
 // --- Calibration sections ---------------------------------------------------
 
-std::string CalibrationSummary(const CalibrationReportData& data) {
-  std::string out = "<section id=\"summary\">\n<h2>Summary</h2>\n";
-  out += "<p>Termination: <b>" + H(data.termination.empty() ? std::string("(not given)") : data.termination) +
-         "</b>";
-  if (data.alternations > 0) out += fmt::format(" &middot; alternations: {}", data.alternations);
-  out += "</p>\n";
-  if (!data.warnings.empty()) {
-    out += "<div class=\"warnings\"><b>Warnings</b><ul>\n";
-    for (const std::string& warning : data.warnings) out += "<li>" + H(warning) + "</li>\n";
-    out += "</ul></div>\n";
-  }
-
-  out += "<h3>Lidars: T_base_lidar</h3>\n";
-  if (data.lidars.empty()) out += "<p class=\"note\">No lidar result.</p>\n";
-  else {
-    out += "<table>\n<tr>" + TupleHeader("<th class=\"text\">lidar</th><th class=\"text\">row</th>") +
-           "<th>|t err| (cm)</th><th>rot err (deg)</th></tr>\n";
-    for (const LidarRow& row : data.lidars) {
-      const std::string name = "<td class=\"text\">" + H(row.lidar) + "</td>";
-      out += "<tr>" + name + "<td class=\"text\">initial guess</td>" +
-             TupleCells(TupleFromTransform(row.T_base_lidar_initial));
-      if (row.T_base_lidar_truth)
-        out += "<td>" + Num(TranslationError(row.T_base_lidar_initial, *row.T_base_lidar_truth) * kCm, 2) +
-               "</td><td>" + Num(RotationErrorDegrees(row.T_base_lidar_initial, *row.T_base_lidar_truth), 3) +
-               "</td>";
-      else
-        out += "<td></td><td></td>";
-      out += "</tr>\n<tr>" + name + "<td class=\"text\"><b>result</b></td>" +
-             TupleCells(TupleFromTransform(row.T_base_lidar));
-      if (row.T_base_lidar_truth)
-        out += "<td><b>" + Num(TranslationError(row.T_base_lidar, *row.T_base_lidar_truth) * kCm, 2) +
-               "</b></td><td><b>" + Num(RotationErrorDegrees(row.T_base_lidar, *row.T_base_lidar_truth), 3) +
-               "</b></td>";
-      else
-        out += "<td></td><td></td>";
-      out += "</tr>\n";
-      if (row.sigma) out += "<tr>" + name + "<td class=\"text\">1-sigma</td>" + TupleCells(*row.sigma) + "<td></td><td></td></tr>\n";
-      if (row.T_base_lidar_truth) {
-        out += "<tr class=\"truth\">" + name + "<td class=\"text\">truth</td>" +
-               TupleCells(TupleFromTransform(*row.T_base_lidar_truth)) + "<td></td><td></td></tr>\n";
-        out += "<tr>" + name + "<td class=\"text\">error (result &minus; truth)</td>" +
-               TupleCells(TupleError(row.T_base_lidar, *row.T_base_lidar_truth)) + "<td></td><td></td></tr>\n";
-      }
-    }
-    out += "</table>\n";
-  }
-
-  out += "<h3>Pairs: T_camera_lidar</h3>\n";
-  if (data.pairs.empty()) out += "<p class=\"note\">No pair result.</p>\n";
-  else {
-    const bool any_truth = std::any_of(data.pairs.begin(), data.pairs.end(),
-                                       [](const PairRow& row) { return row.T_camera_lidar_truth.has_value(); });
-    out += "<div class=\"wide\"><table>\n<tr>" +
-           TupleHeader("<th class=\"text\">camera</th><th class=\"text\">lidar</th>") +
-           "<th>scenes used</th><th>initial cost</th><th>final cost</th></tr>\n";
-    for (const PairRow& row : data.pairs)
-      out += "<tr><td class=\"text\">" + H(row.camera) + "</td><td class=\"text\">" + H(row.lidar) + "</td>" +
-             TupleCells(TupleFromTransform(row.T_camera_lidar)) +
-             fmt::format("<td>{} / {}</td>", row.scenes_used, row.scenes) + "<td>" + Num(row.initial_cost, 5) +
-             "</td><td>" + Num(row.final_cost, 5) + "</td></tr>\n";
-    out += "</table></div>\n";
-    if (any_truth) {
-      out += "<h3>Pairs: error of T_camera_lidar to the truth (result &minus; truth)</h3>\n<div class=\"wide\"><table>\n<tr>" +
-             TupleHeader("<th class=\"text\">camera</th><th class=\"text\">lidar</th>", " err") +
-             "<th>|t err| (cm)</th><th>rot err (deg)</th></tr>\n";
-      for (const PairRow& row : data.pairs) {
-        if (!row.T_camera_lidar_truth) continue;
-        out += "<tr><td class=\"text\">" + H(row.camera) + "</td><td class=\"text\">" + H(row.lidar) + "</td>" +
-               TupleCells(TupleError(row.T_camera_lidar, *row.T_camera_lidar_truth)) + "<td>" +
-               Num(TranslationError(row.T_camera_lidar, *row.T_camera_lidar_truth) * kCm, 2) + "</td><td>" +
-               Num(RotationErrorDegrees(row.T_camera_lidar, *row.T_camera_lidar_truth), 3) + "</td></tr>\n";
-      }
-      out += "</table></div>\n";
+std::string LidarRowsTable(const std::vector<LidarRow>& lidars) {
+  if (lidars.empty()) return "<p class=\"note\">No lidar result.</p>\n";
+  std::string out = "<table>\n<tr>" + TupleHeader("<th class=\"text\">lidar</th><th class=\"text\">row</th>") +
+                    "<th>|t err| (cm)</th><th>rot err (deg)</th></tr>\n";
+  for (const LidarRow& row : lidars) {
+    const std::string name = "<td class=\"text\">" + H(row.lidar) + "</td>";
+    out += "<tr>" + name + "<td class=\"text\">initial guess</td>" +
+           TupleCells(TupleFromTransform(row.T_base_lidar_initial));
+    if (row.T_base_lidar_truth)
+      out += "<td>" + Num(TranslationError(row.T_base_lidar_initial, *row.T_base_lidar_truth) * kCm, 2) +
+             "</td><td>" + Num(RotationErrorDegrees(row.T_base_lidar_initial, *row.T_base_lidar_truth), 3) +
+             "</td>";
+    else
+      out += "<td></td><td></td>";
+    out += "</tr>\n<tr>" + name + "<td class=\"text\"><b>result</b></td>" +
+           TupleCells(TupleFromTransform(row.T_base_lidar));
+    if (row.T_base_lidar_truth)
+      out += "<td><b>" + Num(TranslationError(row.T_base_lidar, *row.T_base_lidar_truth) * kCm, 2) +
+             "</b></td><td><b>" + Num(RotationErrorDegrees(row.T_base_lidar, *row.T_base_lidar_truth), 3) +
+             "</b></td>";
+    else
+      out += "<td></td><td></td>";
+    out += "</tr>\n";
+    if (row.sigma)
+      out += "<tr>" + name + "<td class=\"text\">1-sigma</td>" + TupleCells(*row.sigma) + "<td></td><td></td></tr>\n";
+    if (row.T_base_lidar_truth) {
+      out += "<tr class=\"truth\">" + name + "<td class=\"text\">truth</td>" +
+             TupleCells(TupleFromTransform(*row.T_base_lidar_truth)) + "<td></td><td></td></tr>\n";
+      out += "<tr>" + name + "<td class=\"text\">error (result &minus; truth)</td>" +
+             TupleCells(TupleError(row.T_base_lidar, *row.T_base_lidar_truth)) + "<td></td><td></td></tr>\n";
     }
   }
+  return out + "</table>\n";
+}
 
+std::string PairRowsTables(const std::vector<PairRow>& pairs) {
+  if (pairs.empty()) return "<p class=\"note\">No pair result.</p>\n";
+  std::string out = "<div class=\"wide\"><table>\n<tr>" +
+                    TupleHeader("<th class=\"text\">camera</th><th class=\"text\">lidar</th>") +
+                    "<th>scenes used</th><th>initial cost</th><th>final cost</th></tr>\n";
+  for (const PairRow& row : pairs)
+    out += "<tr><td class=\"text\">" + H(row.camera) + "</td><td class=\"text\">" + H(row.lidar) + "</td>" +
+           TupleCells(TupleFromTransform(row.T_camera_lidar)) +
+           fmt::format("<td>{} / {}</td>", row.scenes_used, row.scenes) + "<td>" + Num(row.initial_cost, 5) +
+           "</td><td>" + Num(row.final_cost, 5) + "</td></tr>\n";
+  out += "</table></div>\n";
+  const bool any_truth =
+      std::any_of(pairs.begin(), pairs.end(), [](const PairRow& row) { return row.T_camera_lidar_truth.has_value(); });
+  if (!any_truth) return out;
+  out += "<h3>Pairs: error of T_camera_lidar to the truth (result &minus; truth)</h3>\n"
+         "<div class=\"wide\"><table>\n<tr>" +
+         TupleHeader("<th class=\"text\">camera</th><th class=\"text\">lidar</th>", " err") +
+         "<th>|t err| (cm)</th><th>rot err (deg)</th></tr>\n";
+  for (const PairRow& row : pairs) {
+    if (!row.T_camera_lidar_truth) continue;
+    out += "<tr><td class=\"text\">" + H(row.camera) + "</td><td class=\"text\">" + H(row.lidar) + "</td>" +
+           TupleCells(TupleError(row.T_camera_lidar, *row.T_camera_lidar_truth)) + "<td>" +
+           Num(TranslationError(row.T_camera_lidar, *row.T_camera_lidar_truth) * kCm, 2) + "</td><td>" +
+           Num(RotationErrorDegrees(row.T_camera_lidar, *row.T_camera_lidar_truth), 3) + "</td></tr>\n";
+  }
+  return out + "</table></div>\n";
+}
+
+std::string OptimisationsAndTimings(const CalibrationReportData& data) {
+  std::string out;
   if (!data.optimisations.empty()) {
     out += "<h3>Optimiser runs</h3>\n<table>\n<tr><th class=\"text\">problem</th><th>stages</th><th>iterations</th>"
            "<th>evaluations</th><th>time (s)</th><th class=\"text\">termination</th></tr>\n";
@@ -235,6 +224,23 @@ std::string CalibrationSummary(const CalibrationReportData& data) {
       out += "<tr><td class=\"text\">" + H(stage) + "</td><td>" + Num(seconds, 3) + "</td></tr>\n";
     out += "</table>\n";
   }
+  return out;
+}
+
+std::string CalibrationSummary(const CalibrationReportData& data) {
+  std::string out = "<section id=\"summary\">\n<h2>Summary</h2>\n";
+  out += "<p>Termination: <b>" + H(data.termination.empty() ? std::string("(not given)") : data.termination) +
+         "</b>";
+  if (data.alternations > 0) out += fmt::format(" &middot; alternations: {}", data.alternations);
+  out += "</p>\n";
+  if (!data.warnings.empty()) {
+    out += "<div class=\"warnings\"><b>Warnings</b><ul>\n";
+    for (const std::string& warning : data.warnings) out += "<li>" + H(warning) + "</li>\n";
+    out += "</ul></div>\n";
+  }
+  out += "<h3>Lidars: T_base_lidar</h3>\n" + LidarRowsTable(data.lidars);
+  out += "<h3>Pairs: T_camera_lidar</h3>\n" + PairRowsTables(data.pairs);
+  out += OptimisationsAndTimings(data);
   out += "<p class=\"note\">Tuples are [x, y, z, roll, pitch, yaw] with R = Rz(yaw) Ry(pitch) Rx(roll); "
          "per-axis errors are tuple(result) &minus; tuple(truth). T_camera_lidar maps lidar points into the "
          "camera frame (x right, y down, z forward).</p>\n";

@@ -224,193 +224,253 @@ std::uintmax_t DirectorySize(const fs::path& root) {
   return total;
 }
 
-}  // namespace
+using ProgressCallback = std::function<void(double, const std::string&)>;
 
-SimulationSummary Simulate(const SimulationOptions& options, const fs::path& output,
-                           const std::function<void(double, const std::string&)>& progress) {
-  const auto wall_start = std::chrono::steady_clock::now();
-  std::string why;
-  if (!options.IsValid(&why)) throw io::InputError("simulate: invalid options: " + why);
+// The output directory as an absolute path; throws when it exists and is not a
+// directory, or is not empty and may not be replaced.
+fs::path CheckedTarget(const fs::path& output, bool overwrite) {
   fs::path target = fs::absolute(output).lexically_normal();
   if (target.filename().empty()) target = target.parent_path();
-  std::error_code ec;
   if (fs::exists(target)) {
-    if (!fs::is_directory(target)) throw io::InputError(fmt::format("{}: exists and is not a directory", target.string()));
-    if (!fs::is_empty(target) && !options.overwrite)
-      throw io::InputError(fmt::format("{}: output directory is not empty (use --force to replace it)", target.string()));
+    if (!fs::is_directory(target))
+      throw io::InputError(fmt::format("{}: exists and is not a directory", target.string()));
+    if (!fs::is_empty(target) && !overwrite) {
+      throw io::InputError(
+          fmt::format("{}: output directory is not empty (use --force to replace it)", target.string()));
+    }
+  }
+  return target;
+}
+
+// Passes progress on from any thread, one call at a time, skipping steps
+// under 2% unless forced.
+class ProgressThrottle {
+ public:
+  explicit ProgressThrottle(const ProgressCallback& progress) : progress_(progress) {}
+
+  void Report(double fraction, const std::string& message, bool force = false) {
+    if (!progress_) return;
+    std::lock_guard lock(mutex_);
+    if (!force && fraction - last_reported_ < 0.02) return;
+    last_reported_ = fraction;
+    progress_(fraction, message);
   }
 
-  std::mutex progress_mutex;
-  double last_reported = -1.0;
-  const auto report = [&](double fraction, const std::string& message, bool force = false) {
-    if (!progress) return;
-    std::lock_guard lock(progress_mutex);
-    if (!force && fraction - last_reported < 0.02) return;
-    last_reported = fraction;
-    progress(fraction, message);
-  };
+ private:
+  const ProgressCallback& progress_;
+  std::mutex mutex_;
+  double last_reported_ = -1.0;
+};
 
-  // The drive and the world around it.
-  report(0.0, "planning the drive", true);
+DriveOptions DriveOptionsOf(const SimulationOptions& options) {
   DriveOptions drive_options;
   drive_options.distance_m = options.distance_m;
   drive_options.duration_s = options.duration_s;
   drive_options.mean_speed_mps = options.speed_mps;
   drive_options.include_stop = options.include_stop;
-  const Drive drive(options.seed, drive_options);
-  report(0.01, fmt::format("building the street world ({:.0f} m of drive)", drive.total_distance_m()), true);
-  auto world = std::make_shared<World>(World::Generate(options.seed, -80.0, drive.total_distance_m() + 170.0));
+  return drive_options;
+}
 
-  const SimulatedRig simulated = MakeRig(options);
-  const Rig& true_rig = simulated.rig;
-  const TimeUs t_first = kSimulationEpochUs;
-  const TimeUs t_last = kSimulationEpochUs + static_cast<TimeUs>(std::floor(drive.duration_s() * 1e6));
-  const auto T_world_base_at = [&](TimeUs t) {
-    return drive.T_world_vehicle(static_cast<double>(t - kSimulationEpochUs) * 1e-6, *world) * simulated.T_vehicle_base;
-  };
+// The drive through its world: the true pose of the rig's base at any time.
+struct DriveScene {
+  const Drive& drive;
+  const World& world;
+  Eigen::Isometry3d T_vehicle_base;
 
-  // Sensor timestamps, all inside the trajectory's span.
-  const std::vector<TimeUs> image_times = RegularTimes(t_first + 200000, t_last - 100000, options.image_rate_hz);
-  std::map<std::string, std::vector<TimeUs>> scan_times;
-  for (std::size_t i = 0; i < true_rig.lidars.size(); ++i) {
-    const LidarInfo& lidar = true_rig.lidars[i];
-    const double rate = lidar.kind == LidarKind::k2d ? options.lidar_2d_rate_hz : options.lidar_3d_rate_hz;
-    scan_times[lidar.name] = RegularTimes(t_first + 100000 + 3000 + 7000 * static_cast<TimeUs>(i), t_last - 50000, rate);
+  Eigen::Isometry3d T_world_base(TimeUs t) const {
+    return drive.T_world_vehicle(static_cast<double>(t - kSimulationEpochUs) * 1e-6, world) * T_vehicle_base;
   }
+};
 
-  // Trajectories: the odometry (written) on a regular grid, the truth also at every sensor time.
-  report(0.02, "computing the trajectory and odometry", true);
+// Sensor timestamps (microseconds), all inside the trajectory's span.
+struct SensorTimes {
+  std::vector<TimeUs> images;                        // every camera's
+  std::map<std::string, std::vector<TimeUs>> scans;  // per lidar name
+};
+
+SensorTimes PlanSensorTimes(const Rig& rig, const SimulationOptions& options, TimeUs t_first, TimeUs t_last) {
+  SensorTimes times;
+  times.images = RegularTimes(t_first + 200000, t_last - 100000, options.image_rate_hz);
+  for (std::size_t i = 0; i < rig.lidars.size(); ++i) {
+    const LidarInfo& lidar = rig.lidars[i];
+    const double rate = lidar.kind == LidarKind::k2d ? options.lidar_2d_rate_hz : options.lidar_3d_rate_hz;
+    const TimeUs first = t_first + 100000 + 3000 + 7000 * static_cast<TimeUs>(i);  // staggered per lidar
+    times.scans[lidar.name] = RegularTimes(first, t_last - 50000, rate);
+  }
+  return times;
+}
+
+// The odometry (written) on a regular grid; the truth there and at every sensor time.
+void ComputeTrajectories(const DriveScene& scene, const SimulationOptions& options, TimeUs t_first, TimeUs t_last,
+                         const SensorTimes& sensor_times, SimulationSummary* summary) {
   const std::vector<TimeUs> grid = RegularTimes(t_first, t_last, options.trajectory_rate_hz);
   std::vector<Eigen::Isometry3d> T_world_vehicle_grid;
   std::vector<double> distance_grid;
   for (const TimeUs t : grid) {
     const double t_s = static_cast<double>(t - kSimulationEpochUs) * 1e-6;
-    T_world_vehicle_grid.push_back(drive.T_world_vehicle(t_s, *world));
-    distance_grid.push_back(drive.StreetPositionAt(t_s));
+    T_world_vehicle_grid.push_back(scene.drive.T_world_vehicle(t_s, scene.world));
+    distance_grid.push_back(scene.drive.StreetPositionAt(t_s));
   }
   const OdometryDrift drift(options.seed, options.odometry_noise, options.odometry_drift_parts);
   std::vector<Eigen::Isometry3d> T_world_base_odometry = drift.Apply(T_world_vehicle_grid, distance_grid);
-  for (auto& T : T_world_base_odometry) T = T * simulated.T_vehicle_base;
+  for (auto& T : T_world_base_odometry) T = T * scene.T_vehicle_base;
   std::vector<TimeUs> true_times = grid;
-  true_times.insert(true_times.end(), image_times.begin(), image_times.end());
-  for (const auto& [name, times] : scan_times) true_times.insert(true_times.end(), times.begin(), times.end());
+  true_times.insert(true_times.end(), sensor_times.images.begin(), sensor_times.images.end());
+  for (const auto& [name, times] : sensor_times.scans) true_times.insert(true_times.end(), times.begin(), times.end());
   std::sort(true_times.begin(), true_times.end());
   true_times.erase(std::unique(true_times.begin(), true_times.end()), true_times.end());
   std::vector<Eigen::Isometry3d> true_poses;
   true_poses.reserve(true_times.size());
-  for (const TimeUs t : true_times) true_poses.push_back(T_world_base_at(t));
+  for (const TimeUs t : true_times) true_poses.push_back(scene.T_world_base(t));
+  summary->true_trajectory = Trajectory(true_times, std::move(true_poses));
+  summary->odometry_trajectory = Trajectory(grid, std::move(T_world_base_odometry));
+}
 
-  SimulationSummary summary;
-  summary.output = target;
-  summary.preset = PresetName(options.preset);
-  summary.seed = options.seed;
-  summary.true_rig = true_rig;
-  summary.true_trajectory = Trajectory(true_times, std::move(true_poses));
-  summary.odometry_trajectory = Trajectory(grid, std::move(T_world_base_odometry));
-  summary.world = world;
-  summary.lidar_models = simulated.lidar_models;
-  summary.distance_m = drive.total_distance_m();
-  summary.duration_s = static_cast<double>(t_last - t_first) * 1e-6;
-  summary.stop_duration_s = options.include_stop ? drive_options.stop_duration_s : 0.0;
-
-  // The rig as written: perturbed lidar guesses, optionally wrong camera transforms.
+// The rig as written: perturbed lidar guesses, optionally wrong camera
+// transforms; the true values of what was perturbed go to *ground_truth.
+Rig WrittenRig(const Rig& true_rig, const SimulationOptions& options, GroundTruth* ground_truth) {
   Rig written = true_rig;
   KeyedRandom lidar_random(options.seed, 1000), camera_random(options.seed, 1100);
   for (LidarInfo& lidar : written.lidars) {
-    summary.ground_truth.T_base_lidar[lidar.name] = lidar.T_base_lidar;
+    ground_truth->T_base_lidar[lidar.name] = lidar.T_base_lidar;
     lidar.T_base_lidar =
         Perturb(lidar.T_base_lidar, options.perturb_translation_m, options.perturb_rotation_deg, &lidar_random);
   }
   const bool perturb_cameras = options.camera_perturb_translation_m > 0.0 || options.camera_perturb_rotation_deg > 0.0;
-  if (perturb_cameras) {
-    for (CameraInfo& camera : written.cameras) {
-      if (camera.name == written.base_frame) continue;
-      summary.ground_truth.T_base_camera[camera.name] = camera.T_base_camera;
-      camera.T_base_camera = Perturb(camera.T_base_camera, options.camera_perturb_translation_m,
-                                     options.camera_perturb_rotation_deg, &camera_random);
-      // 1-sigma per component as large as the whole error (floored: zero would mean a hard constraint).
-      const double sigma_t = std::max(options.camera_perturb_translation_m, 1e-4);
-      const double sigma_r = std::max(RadiansFromDegrees(options.camera_perturb_rotation_deg), 1e-4);
-      camera.T_base_camera_sigma = (Vector6d() << sigma_t, sigma_t, sigma_t, sigma_r, sigma_r, sigma_r).finished();
-    }
+  if (!perturb_cameras) return written;
+  for (CameraInfo& camera : written.cameras) {
+    if (camera.name == written.base_frame) continue;
+    ground_truth->T_base_camera[camera.name] = camera.T_base_camera;
+    camera.T_base_camera = Perturb(camera.T_base_camera, options.camera_perturb_translation_m,
+                                   options.camera_perturb_rotation_deg, &camera_random);
+    // 1-sigma per component as large as the whole error (floored: zero would mean a hard constraint).
+    const double sigma_t = std::max(options.camera_perturb_translation_m, 1e-4);
+    const double sigma_r = std::max(RadiansFromDegrees(options.camera_perturb_rotation_deg), 1e-4);
+    camera.T_base_camera_sigma = (Vector6d() << sigma_t, sigma_t, sigma_t, sigma_r, sigma_r, sigma_r).finished();
   }
-  summary.rig = written;
+  return written;
+}
 
-  // Everything is written into a temporary sibling and renamed at the end.
+struct ImageTask {
+  std::size_t camera;
+  std::size_t frame;
+  TimeUs t;
+};
+
+struct ScanTask {
+  std::size_t lidar;
+  std::size_t scan;
+  TimeUs t;
+};
+
+// What rendering and scanning read: the true sensors, the drive and where the files go.
+struct Recording {
+  const SimulationOptions& options;
+  const SimulatedRig& simulated;
+  const DriveScene& scene;
+  const SensorTimes& times;
+  const fs::path& directory;
+};
+
+// Progress of the sensor data in units of rays cast, mapped onto [0.03, 0.98].
+class RayProgress {
+ public:
+  RayProgress(ProgressThrottle* report, double total_work) : report_(report), total_work_(total_work) {}
+
+  void Advance(double work, const std::string& message) {
+    double expected = done_work_.load();
+    while (!done_work_.compare_exchange_weak(expected, expected + work)) {
+    }
+    report_->Report(0.03 + 0.95 * (expected + work) / std::max(1.0, total_work_), message);
+  }
+
+ private:
+  ProgressThrottle* report_;
+  double total_work_;
+  std::atomic<double> done_work_{0.0};
+};
+
+double RaysToCast(const Recording& recording, const std::vector<ScanTask>& scan_tasks) {
+  const Rig& rig = recording.simulated.rig;
+  double total_work = 0.0;
+  for (std::size_t c = 0; c < rig.cameras.size(); ++c)
+    total_work += double(recording.times.images.size()) * rig.cameras[c].model.width * rig.cameras[c].model.height;
+  for (const ScanTask& task : scan_tasks)
+    total_work += double(recording.simulated.lidar_models.at(rig.lidars[task.lidar].name).beam_directions.size());
+  return total_work;
+}
+
+void RenderImages(const Recording& recording, const std::vector<ImageTask>& tasks, RayProgress* progress) {
+  tbb::parallel_for(std::size_t{0}, tasks.size(), [&](std::size_t i) {
+    ThrowIfInterrupted();  // unwinds to WriteDataset's catch, which removes the temporary folder
+    const ImageTask& task = tasks[i];
+    const CameraInfo& camera = recording.simulated.rig.cameras[task.camera];
+    const Eigen::Isometry3d T_world_camera = recording.scene.T_world_base(task.t) * camera.T_base_camera;
+    const cv::Mat image = RenderImage(recording.scene.world, camera.model, T_world_camera, recording.options.render,
+                                      HashKey(recording.options.seed, 2000 + task.camera, task.frame));
+    io::WriteImage(recording.directory / "cameras" / camera.name / fmt::format("{}.png", task.t), image);
+    progress->Advance(double(camera.model.width) * camera.model.height,
+                      fmt::format("rendered image {}/{}", task.frame + 1, recording.times.images.size()));
+  });
+}
+
+void ScanLidars(const Recording& recording, const std::vector<ScanTask>& tasks, RayProgress* progress,
+                SimulationSummary* summary) {
+  std::atomic<std::size_t> returns{0}, no_returns{0};
+  tbb::parallel_for(std::size_t{0}, tasks.size(), [&](std::size_t i) {
+    ThrowIfInterrupted();
+    const ScanTask& task = tasks[i];
+    const LidarInfo& lidar = recording.simulated.rig.lidars[task.lidar];
+    const LidarModel& model = recording.simulated.lidar_models.at(lidar.name);
+    const Eigen::Isometry3d T_world_lidar = recording.scene.T_world_base(task.t) * lidar.T_base_lidar;
+    ScanStatistics statistics;
+    const std::vector<LidarPoint> points =
+        ScanLidar(recording.scene.world, model, T_world_lidar,
+                  HashKey(recording.options.seed, 3000 + task.lidar, task.scan), &statistics);
+    io::WriteScan(recording.directory / "lidars" / lidar.name / fmt::format("{}.bin", task.t), points);
+    returns += statistics.returns;
+    no_returns += statistics.no_returns;
+    progress->Advance(double(model.beam_directions.size()), fmt::format("scanned {} {}/{}", lidar.name, task.scan + 1,
+                                                                        recording.times.scans.at(lidar.name).size()));
+  });
+  summary->lidar_returns = returns;
+  summary->lidar_no_returns = no_returns;
+}
+
+// Renders every image and scans every scan into recording.directory.
+void RecordSensors(const Recording& recording, ProgressThrottle* report, SimulationSummary* summary) {
+  const Rig& rig = recording.simulated.rig;
+  std::vector<ImageTask> image_tasks;
+  for (std::size_t c = 0; c < rig.cameras.size(); ++c) {
+    for (std::size_t k = 0; k < recording.times.images.size(); ++k)
+      image_tasks.push_back({c, k, recording.times.images[k]});
+    summary->images_per_camera[rig.cameras[c].name] = recording.times.images.size();
+  }
+  std::vector<ScanTask> scan_tasks;
+  for (std::size_t l = 0; l < rig.lidars.size(); ++l) {
+    const auto& times = recording.times.scans.at(rig.lidars[l].name);
+    for (std::size_t j = 0; j < times.size(); ++j) scan_tasks.push_back({l, j, times[j]});
+    summary->scans_per_lidar[rig.lidars[l].name] = times.size();
+  }
+  RayProgress progress(report, RaysToCast(recording, scan_tasks));
+  RenderImages(recording, image_tasks, &progress);
+  ScanLidars(recording, scan_tasks, &progress, summary);
+}
+
+// Everything is written into a temporary sibling of `target` and renamed at the end.
+void WriteDataset(const fs::path& target, const SimulationOptions& options, const SimulatedRig& simulated,
+                  const DriveScene& scene, const SensorTimes& times, ProgressThrottle* report,
+                  SimulationSummary* summary) {
+  std::error_code ec;
   const fs::path temporary =
       target.parent_path() / fmt::format(".{}.partial-{}", target.filename().string(), static_cast<long>(::getpid()));
   fs::remove_all(temporary, ec);
   const io::RegisteredTemporaryPath registration(temporary);  // for a process that must end at once
   fs::create_directories(temporary);
   try {
-    io::WriteDatasetSkeleton(temporary, written, summary.odometry_trajectory, summary.ground_truth);
-
-    struct ImageTask {
-      std::size_t camera;
-      std::size_t frame;
-      TimeUs t;
-    };
-    std::vector<ImageTask> image_tasks;
-    for (std::size_t c = 0; c < true_rig.cameras.size(); ++c) {
-      for (std::size_t k = 0; k < image_times.size(); ++k) image_tasks.push_back({c, k, image_times[k]});
-      summary.images_per_camera[true_rig.cameras[c].name] = image_times.size();
-    }
-    struct ScanTask {
-      std::size_t lidar;
-      std::size_t scan;
-      TimeUs t;
-    };
-    std::vector<ScanTask> scan_tasks;
-    for (std::size_t l = 0; l < true_rig.lidars.size(); ++l) {
-      const auto& times = scan_times[true_rig.lidars[l].name];
-      for (std::size_t j = 0; j < times.size(); ++j) scan_tasks.push_back({l, j, times[j]});
-      summary.scans_per_lidar[true_rig.lidars[l].name] = times.size();
-    }
-    // Progress in units of rays cast.
-    double total_work = 0.0;
-    for (std::size_t c = 0; c < true_rig.cameras.size(); ++c)
-      total_work += double(image_times.size()) * true_rig.cameras[c].model.width * true_rig.cameras[c].model.height;
-    for (const ScanTask& task : scan_tasks)
-      total_work += double(simulated.lidar_models.at(true_rig.lidars[task.lidar].name).beam_directions.size());
-    std::atomic<double> done_work{0.0};
-    const auto advance = [&](double work, const std::string& message) {
-      double expected = done_work.load();
-      while (!done_work.compare_exchange_weak(expected, expected + work)) {
-      }
-      report(0.03 + 0.95 * (expected + work) / std::max(1.0, total_work), message);
-    };
-
-    tbb::parallel_for(std::size_t{0}, image_tasks.size(), [&](std::size_t i) {
-      ThrowIfInterrupted();  // unwinds to the catch below, which removes the temporary folder
-      const ImageTask& task = image_tasks[i];
-      const CameraInfo& camera = true_rig.cameras[task.camera];
-      const Eigen::Isometry3d T_world_camera = T_world_base_at(task.t) * camera.T_base_camera;
-      const cv::Mat image = RenderImage(*world, camera.model, T_world_camera, options.render,
-                                        HashKey(options.seed, 2000 + task.camera, task.frame));
-      io::WriteImage(temporary / "cameras" / camera.name / fmt::format("{}.png", task.t), image);
-      advance(double(camera.model.width) * camera.model.height,
-              fmt::format("rendered image {}/{}", task.frame + 1, image_times.size()));
-    });
-
-    std::atomic<std::size_t> returns{0}, no_returns{0};
-    tbb::parallel_for(std::size_t{0}, scan_tasks.size(), [&](std::size_t i) {
-      ThrowIfInterrupted();
-      const ScanTask& task = scan_tasks[i];
-      const LidarInfo& lidar = true_rig.lidars[task.lidar];
-      const LidarModel& model = simulated.lidar_models.at(lidar.name);
-      const Eigen::Isometry3d T_world_lidar = T_world_base_at(task.t) * lidar.T_base_lidar;
-      ScanStatistics statistics;
-      const std::vector<LidarPoint> points =
-          ScanLidar(*world, model, T_world_lidar, HashKey(options.seed, 3000 + task.lidar, task.scan), &statistics);
-      io::WriteScan(temporary / "lidars" / lidar.name / fmt::format("{}.bin", task.t), points);
-      returns += statistics.returns;
-      no_returns += statistics.no_returns;
-      advance(double(model.beam_directions.size()), fmt::format("scanned {} {}/{}", lidar.name, task.scan + 1,
-                                                                scan_times[lidar.name].size()));
-    });
-    summary.lidar_returns = returns;
-    summary.lidar_no_returns = no_returns;
-    summary.bytes_on_disk = DirectorySize(temporary);
+    io::WriteDatasetSkeleton(temporary, summary->rig, summary->odometry_trajectory, summary->ground_truth);
+    RecordSensors({options, simulated, scene, times, temporary}, report, summary);
+    summary->bytes_on_disk = DirectorySize(temporary);
 
     if (fs::exists(target)) fs::remove_all(target);
     fs::rename(temporary, target);
@@ -418,8 +478,47 @@ SimulationSummary Simulate(const SimulationOptions& options, const fs::path& out
     fs::remove_all(temporary, ec);
     throw;
   }
+}
+
+}  // namespace
+
+SimulationSummary Simulate(const SimulationOptions& options, const fs::path& output, const ProgressCallback& progress) {
+  const auto wall_start = std::chrono::steady_clock::now();
+  std::string why;
+  if (!options.IsValid(&why)) throw io::InputError("simulate: invalid options: " + why);
+  const fs::path target = CheckedTarget(output, options.overwrite);
+  ProgressThrottle report(progress);
+
+  // The drive and the world around it.
+  report.Report(0.0, "planning the drive", true);
+  const DriveOptions drive_options = DriveOptionsOf(options);
+  const Drive drive(options.seed, drive_options);
+  report.Report(0.01, fmt::format("building the street world ({:.0f} m of drive)", drive.total_distance_m()), true);
+  auto world = std::make_shared<World>(World::Generate(options.seed, -80.0, drive.total_distance_m() + 170.0));
+
+  const SimulatedRig simulated = MakeRig(options);
+  const TimeUs t_first = kSimulationEpochUs;
+  const TimeUs t_last = kSimulationEpochUs + static_cast<TimeUs>(std::floor(drive.duration_s() * 1e6));
+  const DriveScene scene{drive, *world, simulated.T_vehicle_base};
+  const SensorTimes times = PlanSensorTimes(simulated.rig, options, t_first, t_last);
+
+  SimulationSummary summary;
+  report.Report(0.02, "computing the trajectory and odometry", true);
+  ComputeTrajectories(scene, options, t_first, t_last, times, &summary);
+  summary.output = target;
+  summary.preset = PresetName(options.preset);
+  summary.seed = options.seed;
+  summary.true_rig = simulated.rig;
+  summary.world = world;
+  summary.lidar_models = simulated.lidar_models;
+  summary.distance_m = drive.total_distance_m();
+  summary.duration_s = static_cast<double>(t_last - t_first) * 1e-6;
+  summary.stop_duration_s = options.include_stop ? drive_options.stop_duration_s : 0.0;
+  summary.rig = WrittenRig(simulated.rig, options, &summary.ground_truth);
+
+  WriteDataset(target, options, simulated, scene, times, &report, &summary);
   summary.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
-  report(1.0, "done", true);
+  report.Report(1.0, "done", true);
   return summary;
 }
 

@@ -606,25 +606,26 @@ inline bool IntersectSphere(const World::Sphere& s, const Eigen::Vector3d& o, co
   return true;
 }
 
-}  // namespace
+// The object grid's placement: cells of cell_size metres from (x0, y0), nx by ny of them.
+struct GridFrame {
+  double x0, y0, cell_size;
+  int nx, ny;
+};
 
-template <bool kAnyHit>
-bool World::Traverse(const Ray& ray, double min_distance, double max_distance, Candidate* best) const {
-  const Eigen::Vector3d& o = ray.origin;
-  const Eigen::Vector3d& d = ray.direction;
-  double t0 = min_distance, t1 = std::min(max_distance, best->t);
-  // Objects live in 0 <= z <= top_z: clip the ray to that slab.
+// Clips the ray's interval [*t0, *t1] to the slab 0 <= z <= top_z (where
+// objects live) and to the grid's rectangle; false when nothing is left.
+inline bool ClipToGrid(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double top_z, const GridFrame& grid,
+                       double* t0, double* t1) {
   if (std::abs(d.z()) > 1e-12) {
-    double ta = (0.0 - o.z()) / d.z(), tb = (top_z_ - o.z()) / d.z();
+    double ta = (0.0 - o.z()) / d.z(), tb = (top_z - o.z()) / d.z();
     if (ta > tb) std::swap(ta, tb);
-    t0 = std::max(t0, ta);
-    t1 = std::min(t1, tb);
-  } else if (o.z() < 0.0 || o.z() > top_z_) {
+    *t0 = std::max(*t0, ta);
+    *t1 = std::min(*t1, tb);
+  } else if (o.z() < 0.0 || o.z() > top_z) {
     return false;
   }
-  // And to the grid's rectangle.
-  const double gx1 = grid_x0_ + grid_nx_ * cell_size_, gy1 = grid_y0_ + grid_ny_ * cell_size_;
-  const double bounds_lo[2] = {grid_x0_, grid_y0_}, bounds_hi[2] = {gx1, gy1};
+  const double gx1 = grid.x0 + grid.nx * grid.cell_size, gy1 = grid.y0 + grid.ny * grid.cell_size;
+  const double bounds_lo[2] = {grid.x0, grid.y0}, bounds_hi[2] = {gx1, gy1};
   for (int a = 0; a < 2; ++a) {
     if (std::abs(d[a]) < 1e-12) {
       if (o[a] < bounds_lo[a] || o[a] > bounds_hi[a]) return false;
@@ -632,70 +633,118 @@ bool World::Traverse(const Ray& ray, double min_distance, double max_distance, C
     }
     double ta = (bounds_lo[a] - o[a]) / d[a], tb = (bounds_hi[a] - o[a]) / d[a];
     if (ta > tb) std::swap(ta, tb);
-    t0 = std::max(t0, ta);
-    t1 = std::min(t1, tb);
+    *t0 = std::max(*t0, ta);
+    *t1 = std::min(*t1, tb);
   }
-  if (t0 > t1) return false;
+  return !(*t0 > *t1);
+}
 
-  const double x = o.x() + t0 * d.x(), y = o.y() + t0 * d.y();
-  int ix = std::clamp(static_cast<int>(std::floor((x - grid_x0_) / cell_size_)), 0, grid_nx_ - 1);
-  int iy = std::clamp(static_cast<int>(std::floor((y - grid_y0_) / cell_size_)), 0, grid_ny_ - 1);
-  const int step_x = d.x() > 0 ? 1 : -1, step_y = d.y() > 0 ? 1 : -1;
-  const double delta_x = std::abs(d.x()) > 1e-12 ? cell_size_ / std::abs(d.x()) : kInfinity;
-  const double delta_y = std::abs(d.y()) > 1e-12 ? cell_size_ / std::abs(d.y()) : kInfinity;
-  double next_x = std::abs(d.x()) > 1e-12 ? (grid_x0_ + (ix + (step_x > 0 ? 1 : 0)) * cell_size_ - o.x()) / d.x() : kInfinity;
-  double next_y = std::abs(d.y()) > 1e-12 ? (grid_y0_ + (iy + (step_y > 0 ? 1 : 0)) * cell_size_ - o.y()) / d.y() : kInfinity;
+// The grid cells a ray passes through in x and y, in order, from the cell at t0.
+struct CellWalk {
+  CellWalk(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double t0, const GridFrame& grid) {
+    const double x = o.x() + t0 * d.x(), y = o.y() + t0 * d.y();
+    ix = std::clamp(static_cast<int>(std::floor((x - grid.x0) / grid.cell_size)), 0, grid.nx - 1);
+    iy = std::clamp(static_cast<int>(std::floor((y - grid.y0) / grid.cell_size)), 0, grid.ny - 1);
+    step_x = d.x() > 0 ? 1 : -1;
+    step_y = d.y() > 0 ? 1 : -1;
+    delta_x = std::abs(d.x()) > 1e-12 ? grid.cell_size / std::abs(d.x()) : kInfinity;
+    delta_y = std::abs(d.y()) > 1e-12 ? grid.cell_size / std::abs(d.y()) : kInfinity;
+    next_x = std::abs(d.x()) > 1e-12 ? (grid.x0 + (ix + (step_x > 0 ? 1 : 0)) * grid.cell_size - o.x()) / d.x()
+                                     : kInfinity;
+    next_y = std::abs(d.y()) > 1e-12 ? (grid.y0 + (iy + (step_y > 0 ? 1 : 0)) * grid.cell_size - o.y()) / d.y()
+                                     : kInfinity;
+  }
 
+  std::size_t Cell(const GridFrame& grid) const { return static_cast<std::size_t>(iy) * grid.nx + ix; }
+
+  // Into the next cell; false once the ray leaves the grid.
+  bool Step(const GridFrame& grid) {
+    if (next_x < next_y) {
+      ix += step_x;
+      next_x += delta_x;
+      return !(ix < 0 || ix >= grid.nx);
+    }
+    iy += step_y;
+    next_y += delta_y;
+    return !(iy < 0 || iy >= grid.ny);
+  }
+
+  int ix, iy;
+  int step_x, step_y;
+  double delta_x, delta_y;  // ray parameter across one cell in x, y
+  double next_x, next_y;    // ray parameter at the next cell boundary in x, y
+};
+
+// The last objects a ray tested: objects spanning several cells (buildings,
+// pavements) are tested once per ray.
+class Mailbox {
+ public:
+  // True when `ref` was tested already; else remembers it.
+  bool TestedBefore(std::uint32_t ref) {
+    if (std::find(std::begin(refs_), std::end(refs_), ref) != std::end(refs_)) return true;
+    refs_[next_++ & 7u] = ref;
+    return false;
+  }
+
+ private:
+  std::uint32_t refs_[8] = {~0u, ~0u, ~0u, ~0u, ~0u, ~0u, ~0u, ~0u};
+  std::uint32_t next_ = 0;
+};
+
+struct ObjectHit {
+  double t = 0.0;
+  int axis = 0;
+  double sign = 1.0;
+};
+
+inline bool IntersectObject(std::uint32_t kind, std::uint32_t index, const std::vector<World::Box>& boxes,
+                            const std::vector<World::Cylinder>& cylinders, const std::vector<World::Sphere>& spheres,
+                            const Eigen::Vector3d& o, const Eigen::Vector3d& d, double t_min, double t_max,
+                            ObjectHit* hit) {
+  if (kind == kKindBox) return IntersectBox(boxes[index], o, d, t_min, t_max, &hit->t, &hit->axis, &hit->sign);
+  if (kind == kKindCylinder) return IntersectCylinder(cylinders[index], o, d, t_min, t_max, &hit->t, &hit->axis);
+  return IntersectSphere(spheres[index], o, d, t_min, t_max, &hit->t);
+}
+
+}  // namespace
+
+template <bool kAnyHit>
+bool World::Traverse(const Ray& ray, double min_distance, double max_distance, Candidate* best) const {
+  const Eigen::Vector3d& o = ray.origin;
+  const Eigen::Vector3d& d = ray.direction;
+  double t0 = min_distance, t1 = std::min(max_distance, best->t);
+  const GridFrame grid{grid_x0_, grid_y0_, cell_size_, grid_nx_, grid_ny_};
+  if (!ClipToGrid(o, d, top_z_, grid, &t0, &t1)) return false;
+
+  CellWalk walk(o, d, t0, grid);
   bool found = false;
   double cell_entry = t0;
-  std::uint32_t mailbox[8] = {~0u, ~0u, ~0u, ~0u, ~0u, ~0u, ~0u, ~0u};
-  std::uint32_t mailbox_next = 0;
+  Mailbox mailbox;
   for (;;) {
-    const std::size_t cell = static_cast<std::size_t>(iy) * grid_nx_ + ix;
-    const double cell_exit_t = std::min({next_x, next_y, t1});
+    const std::size_t cell = walk.Cell(grid);
+    const double cell_exit_t = std::min({walk.next_x, walk.next_y, t1});
     // Lowest height of the ray inside this cell; skip the cell when it passes above everything there.
     const double lowest_z = o.z() + std::min(cell_entry * d.z(), cell_exit_t * d.z());
     const std::uint32_t end = lowest_z > cell_top_z_[cell] ? cell_object_begin_[cell] : cell_object_begin_[cell + 1];
     for (std::uint32_t k = cell_object_begin_[cell]; k < end; ++k) {
       const std::uint32_t ref = cell_objects_[k];
-      // Objects spanning several cells (buildings, pavements) are tested once per ray.
-      if (std::find(std::begin(mailbox), std::end(mailbox), ref) != std::end(mailbox)) continue;
-      mailbox[mailbox_next++ & 7u] = ref;
+      if (mailbox.TestedBefore(ref)) continue;
       const std::uint32_t kind = ref >> kKindShift, index = ref & kIndexMask;
-      double t = 0.0;
-      int axis = 0;
-      double sign = 1.0;
-      bool hit = false;
       const double limit = std::min(best->t, max_distance);
-      if (kind == kKindBox) {
-        hit = IntersectBox(boxes_[index], o, d, min_distance, limit, &t, &axis, &sign);
-      } else if (kind == kKindCylinder) {
-        hit = IntersectCylinder(cylinders_[index], o, d, min_distance, limit, &t, &axis);
-      } else {
-        hit = IntersectSphere(spheres_[index], o, d, min_distance, limit, &t);
-      }
-      if (hit) {
-        best->t = t;
-        best->kind = static_cast<int>(kind);
-        best->index = index;
-        best->face_axis = axis;
-        best->face_sign = sign;
-        found = true;
-        if constexpr (kAnyHit) return true;
-      }
+      ObjectHit hit;
+      if (!IntersectObject(kind, index, boxes_, cylinders_, spheres_, o, d, min_distance, limit, &hit)) continue;
+      best->t = hit.t;
+      best->kind = static_cast<int>(kind);
+      best->index = index;
+      best->face_axis = hit.axis;
+      best->face_sign = hit.sign;
+      found = true;
+      if constexpr (kAnyHit) return true;
     }
-    const double cell_exit = std::min(next_x, next_y);
+    const double cell_exit = std::min(walk.next_x, walk.next_y);
     if (best->t <= cell_exit || cell_exit >= t1) break;
     cell_entry = cell_exit;
-    if (next_x < next_y) {
-      ix += step_x;
-      next_x += delta_x;
-      if (ix < 0 || ix >= grid_nx_) break;
-    } else {
-      iy += step_y;
-      next_y += delta_y;
-      if (iy < 0 || iy >= grid_ny_) break;
-    }
+    if (!walk.Step(grid)) break;
   }
   return found;
 }
