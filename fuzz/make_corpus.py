@@ -120,6 +120,19 @@ history:
 """)
 write("fuzz_calibration_result", "minimal.yaml", "format: scenecal-calibration/1\nlidars: {}\npairs: []\n")
 
+# ---- option files (--config) and presets ----
+for preset in sorted((CORPUS.parent.parent / "config").glob("*.yaml")):
+    write("fuzz_option_file", "preset-" + preset.name, preset.read_text())
+write("fuzz_option_file", "result.yaml", """format: scenecal-calibration/1
+lidars: {}
+options:
+  scheme: joint
+  stages: 1,0.3
+  motion-correction: [turn, drive-scale]
+  no-uncertainty: true
+""")
+write("fuzz_option_file", "duplicate.yaml", "thin: 2\nthin: 3\n")
+
 # ---- lidar scans (.bin): float32 x, y, z, reflectance ----
 points = [(1.0, 2.0, 3.0, 0.5), (-4.5, 0.25, 1e-3, 1.0), (float("nan"), 0, 0, 0), (10.0, -1.0, 0.0, float("inf"))]
 write("fuzz_scan", "four.bin", b"".join(struct.pack("<4f", *p) for p in points))

@@ -53,7 +53,7 @@ fi
 
 dictionary_for() {
   case "$1" in
-    fuzz_rig|fuzz_ground_truth|fuzz_calibration_result) echo "$ROOT/fuzz/dict/yaml.dict" ;;
+    fuzz_rig|fuzz_ground_truth|fuzz_calibration_result|fuzz_option_file) echo "$ROOT/fuzz/dict/yaml.dict" ;;
     fuzz_pcd) echo "$ROOT/fuzz/dict/pcd.dict" ;;
     fuzz_kitti_*|fuzz_opencalib) echo "$ROOT/fuzz/dict/kitti.dict" ;;
   esac

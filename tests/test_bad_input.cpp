@@ -456,6 +456,48 @@ TEST(BadInput, UnwritableOutputPathsAreRefusedBeforeAnyWork) {
   }
 }
 
+// A --config file that is not what calibrate can read: exit 2 naming the file,
+// the option and its line; nothing written.
+TEST(BadInput, BadConfigFilesAreRefusedNamingTheFileAndTheOption) {
+  ASSERT_TRUE(fs::exists(SCENECAL_CLI_PATH)) << "build the scenecal target first";
+  const TempDir temp;
+  const fs::path dataset = temp.path() / "dataset";
+  WriteValidDataset(dataset);
+  struct Case {
+    std::string content, named;
+  };
+  const std::vector<Case> cases = {
+      {"thin: 2\nthinn: 2\n", "line 2: thinn"},                 // not an option
+      {"scenes: 4\nthin: -1\n", "line 2: thin"},                // a value the option refuses
+      {"output: elsewhere.yaml\n", "output"},                     // paths go on the command line
+      {"config: other.yaml\n", "config"},
+      {"--thin: 2\n", "--thin"},
+      {"thin: {cell: 2}\n", "thin"},
+      {"thin: [2\n", "line"},
+      {"setting: push-broom-wet\n", "setting"},
+      {"format: scenecal-calibration/1\nlidars: {}\n", "options block"},
+  };
+  const fs::path result = temp.path() / "result.yaml";
+  for (std::size_t i = 0; i < cases.size(); ++i) {
+    SCOPED_TRACE(cases[i].content);
+    const fs::path config = temp.path() / ("config_" + std::to_string(i) + ".yaml");
+    WriteFile(config, cases[i].content);
+    const CliRun run = RunCli("calibrate '" + dataset.string() + "' --output '" + result.string() + "' --config '" +
+                                  config.string() + "'",
+                              temp.path());
+    EXPECT_TRUE(run.exited);
+    EXPECT_EQ(run.exit_code, 2) << run.stderr_text;
+    EXPECT_NE(run.stderr_text.find(config.string()), std::string::npos) << run.stderr_text;
+    EXPECT_NE(run.stderr_text.find(cases[i].named), std::string::npos) << run.stderr_text;
+    EXPECT_FALSE(fs::exists(result));
+  }
+  const CliRun missing = RunCli("calibrate '" + dataset.string() + "' --output '" + result.string() +
+                                    "' --config '" + (temp.path() / "missing.yaml").string() + "'",
+                                temp.path());
+  EXPECT_EQ(missing.exit_code, 2) << missing.stderr_text;
+  EXPECT_NE(missing.stderr_text.find("missing.yaml"), std::string::npos) << missing.stderr_text;
+}
+
 // A push-broom lidar on a drive shorter than its swathe: refused with the
 // selection step that removed the frames, not blamed on the images.
 TEST(BadInput, ShortDriveNamesTheSelectionStepForA2dLidar) {

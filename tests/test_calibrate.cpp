@@ -378,8 +378,8 @@ TEST_F(CalibrateOnSimulation, CliSettingFillsTheOptionsNotGivenAndRefusesARigWit
   const YAML::Node settings = result["settings"];
   const std::string setting = settings["setting"].as<std::string>();
   const std::string border = std::to_string(static_cast<int>(std::lround(0.0375 * widest)));
-  EXPECT_EQ(setting, "push-broom-drifting: --range-split 6 --thin 2 --lower-solver lbfgs --motion-correction "
-                     "turn,drive-scale --refresh-border " + border);
+  EXPECT_EQ(setting, "push-broom-drifting: --range-split 6 --thin 2 --lower-solver lbfgs --refresh-border 3.75% "
+                     "--motion-correction turn,drive-scale --alternations 40 --stage-alternations 20");
   // The options the command line gave keep their values; the setting's are in force.
   EXPECT_EQ(settings["swathe_length_m"].as<std::string>(), "12");
   EXPECT_EQ(settings["refresh_border_px"].as<std::string>(), border);
@@ -408,7 +408,7 @@ TEST_F(CalibrateOnSimulation, CliSettingFillsTheOptionsNotGivenAndRefusesARigWit
   const YAML::Node alt_settings = alt_result["settings"];
   EXPECT_EQ(alt_settings["setting"].as<std::string>(),
             "push-broom: --swathe-length 30 --range-split 6 --thin 2 --lower-solver lbfgs --image-highpass 0.0234 "
-            "--alternations 40 --stage-alternations 20 --refresh-border " + border);
+            "--refresh-border 3.75% --alternations 40 --stage-alternations 20");
   EXPECT_EQ(alt_settings["alternations_max"].as<std::string>(), "40");
   EXPECT_EQ(alt_settings["intensity_highpass"].as<std::string>(), "0.0234 of the image width");
   // With the odometry's scale given, the drifting setting does not estimate the drive's scale again.
@@ -418,7 +418,7 @@ TEST_F(CalibrateOnSimulation, CliSettingFillsTheOptionsNotGivenAndRefusesARigWit
                                     "--stages 1 --no-uncertainty --no-basin-check --time-budget 0.3",
                                     &scaled_result));
   const YAML::Node scaled_settings = scaled_result["settings"];
-  EXPECT_NE(scaled_settings["setting"].as<std::string>().find("--motion-correction turn --refresh-border"),
+  EXPECT_NE(scaled_settings["setting"].as<std::string>().find("--motion-correction turn --alternations"),
             std::string::npos)
       << scaled_settings["setting"].as<std::string>();
   EXPECT_EQ(scaled_settings["odometry_scale_percent"].as<std::string>(), "0.25");
@@ -447,7 +447,48 @@ TEST_F(CalibrateOnSimulation, CliSettingFillsTheOptionsNotGivenAndRefusesARigWit
   EXPECT_EQ(RunCli("calibrate " + DatasetPath().string() + " --output " + refused.string() + " --setting pushbroom",
                    &refused_text),
             2);
-  EXPECT_NE(refused_text.find("push-broom,push-broom-drifting"), std::string::npos) << refused_text;
+  EXPECT_NE(refused_text.find("{push-broom-drifting,push-broom}"), std::string::npos) << refused_text;
+}
+
+// --config: a file fills the options the command line did not give; the
+// result's options block, given back with --config, repeats the run exactly.
+TEST_F(CalibrateOnSimulation, CliConfigFileFillsOptionsAndAResultRepeatsItsRun) {
+  const fs::path config = root_ / "options.yaml";
+  std::ofstream(config) << "scheme: joint\nscenes: 6\nthin: 2\nstages: 1\nmax-iterations: 40\nthreads: 1\n";
+  std::string text;
+  const fs::path first = root_ / "config_first.yaml";
+  ASSERT_EQ(RunCli("calibrate " + DatasetPath().string() + " --output " + first.string() + " --config " +
+                       config.string() + " --scenes 4 --no-uncertainty --no-basin-check",
+                   &text),
+            0)
+      << text;
+  const YAML::Node result = YAML::LoadFile(first.string());
+  const YAML::Node settings = result["settings"];
+  EXPECT_EQ(settings["scenes_per_camera"].as<std::string>(), "4");  // the command line wins
+  EXPECT_EQ(settings["scheme"].as<std::string>(), "joint");
+  EXPECT_EQ(settings["thinning"].as<std::string>().rfind("2 points per", 0), 0u);
+  EXPECT_EQ(settings["config"].as<std::string>(), config.string());
+  const YAML::Node options = result["options"];
+  EXPECT_EQ(options["scenes"].as<std::string>(), "4");
+  EXPECT_EQ(options["thin"].as<std::string>(), "2");
+  EXPECT_EQ(options["no-uncertainty"].as<std::string>(), "true");
+  EXPECT_EQ(options["metric"].as<std::string>(), "nid");  // the defaults too: a later version's keep this run's
+  EXPECT_FALSE(options["output"].IsDefined());
+  EXPECT_FALSE(options["config"].IsDefined());
+  // Given back: the same answer to the last digit, the same options.
+  const fs::path again = root_ / "config_again.yaml";
+  ASSERT_EQ(RunCli("calibrate " + DatasetPath().string() + " --output " + again.string() + " --config " +
+                       first.string(),
+                   &text),
+            0)
+      << text;
+  const YAML::Node repeated = YAML::LoadFile(again.string());
+  ASSERT_EQ(repeated["lidars"].size(), result["lidars"].size());
+  for (const auto& lidar : result["lidars"]) {
+    EXPECT_EQ(YAML::Dump(repeated["lidars"][lidar.first.as<std::string>()]["T_base_lidar"]),
+              YAML::Dump(lidar.second["T_base_lidar"]));
+  }
+  EXPECT_EQ(YAML::Dump(repeated["options"]), YAML::Dump(options));
 }
 
 // Rows of a profile CSV by profile name: (dof, offset, cost).

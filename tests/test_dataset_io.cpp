@@ -9,6 +9,7 @@
 
 #include "io/dataset.hpp"
 #include "io/inspect.hpp"
+#include "io/option_file.hpp"
 #include "io_test_support.hpp"
 
 namespace scenecal {
@@ -411,6 +412,56 @@ TEST(DatasetIo, YamlFilesMustBeUtf8) {
   // Well-formed UTF-8 (2, 3 and 4 bytes) is text like any other.
   const std::string good = "format: scenecal-calibration/1\nlidars: {}\npairs: []\nwarnings: [\"caf\xc3\xa9 \xe2\x82\xac \xf0\x9f\x99\x82\"]\n";
   EXPECT_EQ(io::ParseCalibrationResult(good, "result.yaml").warnings.at(0), "caf\xc3\xa9 \xe2\x82\xac \xf0\x9f\x99\x82");
+}
+
+// Option files: values and lists in the file's order, a preset's own keys, a
+// result's options block; what is not an option file is refused with its line.
+TEST(DatasetIo, OptionFilesReadValuesListsAndAResultsOptionsBlock) {
+  const io::OptionFile file = io::ParseOptionText(
+      "# a comment\ndescription: test preset\nrequires: push-broom-drive\nthin: 2\nmotion-correction: [turn, "
+      "drive-scale]\nrefresh-border: 3.75%\n",
+      "preset.yaml");
+  EXPECT_EQ(file.description, "test preset");
+  EXPECT_EQ(file.requires_data, io::kRequiresPushBroomDrive);
+  ASSERT_EQ(file.options.size(), 3u);
+  EXPECT_EQ(file.options[0].name, "thin");
+  EXPECT_EQ(file.options[0].values, std::vector<std::string>{"2"});
+  EXPECT_EQ(file.options[0].line, 4);
+  EXPECT_EQ(file.options[1].values, (std::vector<std::string>{"turn", "drive-scale"}));
+  EXPECT_EQ(file.options[2].values, std::vector<std::string>{"3.75%"});
+  // What OptionsYaml writes reads back the same.
+  YAML::Emitter out;
+  out << io::OptionsYaml(file.options);
+  const io::OptionFile again = io::ParseOptionText(out.c_str(), "again.yaml");
+  ASSERT_EQ(again.options.size(), file.options.size());
+  for (std::size_t i = 0; i < again.options.size(); ++i) {
+    EXPECT_EQ(again.options[i].name, file.options[i].name);
+    EXPECT_EQ(again.options[i].values, file.options[i].values);
+  }
+  // A result file: its options block, the rest ignored.
+  const io::OptionFile result = io::ParseOptionText(
+      "format: scenecal-calibration/1\nlidars: {}\noptions:\n  scenes: 4\n  stages: 1,0.3\n", "result.yaml");
+  ASSERT_EQ(result.options.size(), 2u);
+  EXPECT_EQ(result.options[1].values, std::vector<std::string>{"1,0.3"});
+  const auto message = [](const std::string& text) {
+    try {
+      io::ParseOptionText(text, "bad.yaml");
+    } catch (const io::InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  EXPECT_NE(message("thin: 2\nthin: 3\n").find("duplicate"), std::string::npos);
+  EXPECT_NE(message("thin: {a: 1}\n").find("thin"), std::string::npos);
+  EXPECT_NE(message("thin: []\n").find("non-empty list"), std::string::npos);
+  EXPECT_NE(message("thin:\n").find("thin"), std::string::npos);
+  EXPECT_NE(message("--thin: 2\n").find("without its leading --"), std::string::npos);
+  EXPECT_NE(message("- thin\n").find("a mapping"), std::string::npos);
+  EXPECT_NE(message("requires: anything\n").find("push-broom-drive"), std::string::npos);
+  EXPECT_NE(message("format: scenecal-calibration/1\nlidars: {}\n").find("without an options block"),
+            std::string::npos);
+  EXPECT_NE(message("thin: [2\n").find("line"), std::string::npos);
+  EXPECT_NE(message("thin: 2\n").find("accepted"), std::string::npos);
 }
 
 }  // namespace

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
 
 namespace {
 
@@ -229,7 +230,8 @@ TEST_F(ExperimentCli, StagesBeyondTheAlternationsAreRefused) {
 }
 
 // --setting fills the options the command line did not give, the border from the
-// image width (320 px here), and the report lists what it set.
+// image width (320 px here), and the report lists what it set; OUTPUT/options.yaml
+// given back with --config repeats the experiment.
 TEST_F(ExperimentCli, SettingFillsTheOptionsNotGiven) {
   ASSERT_EQ(exit_code_, 0) << ReadText(Root() / "simulate.log");
   const fs::path output = Root() / "setting";
@@ -242,8 +244,11 @@ TEST_F(ExperimentCli, SettingFillsTheOptionsNotGiven) {
             0)
       << ReadText(log);
   const std::string words =
-      "--range-split 6 --thin 2 --lower-solver lbfgs --motion-correction turn,drive-scale --refresh-border 12";
-  EXPECT_NE(ReadText(log).find("--setting push-broom-drifting: " + words), std::string::npos) << ReadText(log);
+      "--range-split 6 --thin 2 --lower-solver lbfgs --refresh-border 3.75% --motion-correction turn,drive-scale "
+      "--alternations 40 --stage-alternations 20";
+  EXPECT_NE(ReadText(log).find("--setting push-broom-drifting: " + words + " (refresh border 12 px)"),
+            std::string::npos)
+      << ReadText(log);
   // The same experiment without the setting ends elsewhere: its options were in force.
   const fs::path plain = Root() / "setting_plain";
   ASSERT_EQ(RunCli("experiment --dataset " + Dataset().string() +
@@ -260,12 +265,23 @@ TEST_F(ExperimentCli, SettingFillsTheOptionsNotGiven) {
   const std::string html = ReadText(output / "report.html");
   EXPECT_NE(html.find(words), std::string::npos);
   EXPECT_NE(html.find("12 m"), std::string::npos) << "--swathe-length given: kept";
+  const YAML::Node options = YAML::LoadFile((output / "options.yaml").string());
+  EXPECT_EQ(options["swathe-length"].as<std::string>(), "12");
+  EXPECT_EQ(options["thin"].as<std::string>(), "2");
+  EXPECT_EQ(options["motion-correction"].size(), 2u);
+  EXPECT_FALSE(options["output"].IsDefined());
+  const fs::path again = Root() / "setting_again";
+  ASSERT_EQ(RunCli("experiment --config " + (output / "options.yaml").string() + " --output " + again.string(),
+                   Root() / "setting_again.log"),
+            0)
+      << ReadText(Root() / "setting_again.log");
+  EXPECT_EQ(errors(again / "runs.csv"), errors(output / "runs.csv"));
   // An unknown setting: exit 2 before any run.
   EXPECT_EQ(RunCli("experiment --dataset " + Dataset().string() + " --setting push --output " +
                        (Root() / "setting_bad").string(),
                    log),
             2);
-  EXPECT_NE(ReadText(log).find("push-broom,push-broom-drifting"), std::string::npos) << ReadText(log);
+  EXPECT_NE(ReadText(log).find("{push-broom-drifting,push-broom}"), std::string::npos) << ReadText(log);
 }
 
 TEST_F(ExperimentCli, CalibrateReportWritesPageAndOverlays) {

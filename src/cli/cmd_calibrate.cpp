@@ -20,11 +20,11 @@
 
 #include "cli/calibrate_alt.hpp"
 #include "cli/commands.hpp"
+#include "cli/config.hpp"
 #include "cli/cost_arguments.hpp"
 #include "cli/interrupt_handling.hpp"
 #include "cli/load_input.hpp"
 #include "cli/report_writer.hpp"
-#include "cli/setting.hpp"
 #include "cli/uncertainty_report.hpp"
 #include "cli/validators.hpp"
 #include "cli/warning_advice.hpp"
@@ -93,36 +93,10 @@ struct CalibrateArguments {
   bool no_basin_check = false;  // --no-basin-check: skip the restarts from further away
   double basin_offset_deg = 1.0;
   AlternatingArguments alternating;  // --scheme alt
-  std::string setting;               // --setting: a named bundle of the options above (ApplySetting)
-  const CLI::App* command = nullptr;  // to tell the options given on the command line from the defaults
-  std::vector<std::string> setting_words;  // what --setting set (filled by ApplySetting)
+  ConfigArguments config;            // --config, --setting
+  AppliedConfiguration applied;      // what the preset set (ApplyConfiguration)
+  CLI::App* command = nullptr;       // its options: to tell set ones from defaults, and for the result
 };
-
-// Sets the options of args->setting (cli/setting.hpp) that the command line
-// did not give, and lists them in args->setting_words; --refresh-border
-// follows the images and is set once the dataset is open.
-void ApplySetting(CalibrateArguments* args) {
-  for (const SettingOption& option :
-       SettingOptions(args->setting, args->scheme == "alt", GivenOnCommandLine(args->command, "--odometry-scale"))) {
-    if (GivenOnCommandLine(args->command, option.name)) continue;  // the user's own value wins
-    if (option.name == "--swathe-length") args->cost.swathe_length_m = option.number;
-    if (option.name == "--range-split") args->cost.range_split_m = option.number;
-    if (option.name == "--thin") args->cost.thin = static_cast<int>(option.number);
-    if (option.name == "--lower-solver") args->lower_solver = option.value;
-    if (option.name == "--image-highpass") args->cost.image_highpass = option.number;
-    if (option.name == "--motion-correction") args->motion.terms = MotionCorrectionTerms(option.value);
-    if (option.name == "--alternations") args->alternating.alternations = static_cast<int>(option.number);
-    if (option.name == "--stage-alternations") args->alternating.stage_alternations = static_cast<int>(option.number);
-    args->setting_words.push_back(option.name + " " + option.value);
-  }
-}
-
-// The setting's --refresh-border for this rig, or nothing when there is no
-// setting or the option was given.
-std::optional<double> SettingRefreshBorder(const CalibrateArguments& args, const Rig& rig) {
-  if (args.setting.empty() || GivenOnCommandLine(args.command, "--refresh-border")) return std::nullopt;
-  return SettingRefreshBorderPx(rig);
-}
 
 // One line on an estimate's error against the truth: FORMAT.md's translation and
 // rotation errors, then per axis (difference of translations, cm; roll, pitch,
@@ -135,6 +109,12 @@ std::string ErrorLine(const Eigen::Isometry3d& estimate, const Eigen::Isometry3d
       "{:+.3f} dyaw {:+.3f} deg",
       TranslationError(estimate, truth), RotationErrorDegrees(estimate, truth), dt.x(), dt.y(), dt.z(), drpy.x(),
       drpy.y(), drpy.z());
+}
+
+bool LowerSolverFromPreset(const AppliedConfiguration& applied) {
+  const std::vector<std::string>& words = applied.setting_words;
+  return std::any_of(words.begin(), words.end(),
+                     [](const std::string& word) { return word.starts_with("--lower-solver "); });
 }
 
 // The calibration's options from the command line; kExitInvalidInput (logged)
@@ -151,7 +131,7 @@ int MakeCalibrationOptions(const CalibrateArguments& args, CalibrationOptions* o
     } else if (options->cost.histogram.binning != Binning::kBSpline) {
       spdlog::error("--lower-solver lbfgs{} needs --binning bspline: with --binning {} the cost is piecewise constant "
                     "and has no gradient (use --lower-solver simplex for hard binning)",
-                    GivenOnCommandLine(args.command, "--lower-solver") ? "" : " (from --setting " + args.setting + ")",
+                    LowerSolverFromPreset(args.applied) ? " (from --setting " + args.applied.setting + ")" : "",
                     args.cost.binning);
       return kExitInvalidInput;
     }
@@ -184,22 +164,20 @@ int MakeCalibrationOptions(const CalibrateArguments& args, CalibrationOptions* o
   return kExitSuccess;
 }
 
-// --setting on the opened dataset: whether it fits the data, and its
-// --refresh-border for these images (added to *setting_words); logs what the
-// setting set. kExitInvalidInput (logged) when it does not fit.
-int ApplySettingToDataset(const CalibrateArguments& args, const io::Dataset& dataset, CalibrationOptions* options,
-                          std::vector<std::string>* setting_words) {
-  if (args.setting.empty()) return kExitSuccess;
-  const std::string misfit = SettingMisfit(dataset.rig, dataset.trajectory.size());
-  if (!misfit.empty()) {
-    spdlog::error("--setting {} on {}: {}", args.setting, args.dataset, misfit);
-    return kExitInvalidInput;
+// --setting on the opened dataset: whether it fits the data (logged with
+// what it set). kExitInvalidInput (logged) when it does not fit.
+int CheckSettingFitsDataset(const CalibrateArguments& args, const io::Dataset& dataset,
+                            const CalibrationOptions& options) {
+  const AppliedConfiguration& applied = args.applied;
+  if (applied.setting.empty()) return kExitSuccess;
+  if (applied.requires_push_broom_drive) {
+    if (const std::string misfit = PushBroomDriveMisfit(dataset.rig, dataset.trajectory.size()); !misfit.empty()) {
+      spdlog::error("--setting {} on {}: {}", applied.setting, args.dataset, misfit);
+      return kExitInvalidInput;
+    }
   }
-  if (const auto border = SettingRefreshBorder(args, dataset.rig)) {
-    options->cost.swathe.refresh_border_px = *border;
-    setting_words->push_back(fmt::format("--refresh-border {:g}", *border));
-  }
-  spdlog::info("--setting {}: {}", args.setting, fmt::join(*setting_words, " "));  // what the result records
+  spdlog::info("--setting {}: {} (refresh border {:g} px)", applied.setting, fmt::join(applied.setting_words, " "),
+               options.cost.swathe.refresh_border_px);
   return kExitSuccess;
 }
 
@@ -246,7 +224,7 @@ void LogAdviceForRig(const CalibrateArguments& args, const CalibrationOptions& o
                  "and front push-broom lidars) 30 m swathes scored near and far apart did much better: --setting "
                  "push-broom (good odometry) or push-broom-drifting (visual odometry); README, \"What to expect\"");
   } else if (has_push_broom && options.scenes.swathe_length_m >= 20.0 && !options.motion_correction &&
-             args.setting != "push-broom") {  // that setting says the odometry is good
+             args.applied.setting != "push-broom") {  // that preset says the odometry is good
     // Long swathes collect the odometry's drift (docs/findings.md, "Odometry drift moves the minimum along the
     // flat direction").
     spdlog::info("push-broom lidar with {} m swathes: if the trajectory is visual odometry (drifting ~0.01 deg/m), "
@@ -309,13 +287,16 @@ void LogPairReports(const std::vector<PairReport>& pairs) {
 }
 
 // The command line's choices that the result records beside the core's settings.
-void RecordCommandSettings(const CalibrateArguments& args, const std::vector<std::string>& setting_words,
-                           const std::string& single_frame_defaults, CalibrationResult* result) {
+void RecordCommandSettings(const CalibrateArguments& args, const std::string& single_frame_defaults,
+                           CalibrationResult* result) {
   result->settings["image_channel"] = io::ImageChannelName(args.cost.ImageChannel());
-  if (!args.setting.empty()) {
-    result->settings["setting"] =
-        args.setting + (setting_words.empty() ? "" : fmt::format(": {}", fmt::join(setting_words, " ")));
+  const AppliedConfiguration& applied = args.applied;
+  if (!applied.setting.empty()) {
+    result->settings["setting"] = applied.setting + (applied.setting_words.empty()
+                                                         ? ""
+                                                         : fmt::format(": {}", fmt::join(applied.setting_words, " ")));
   }
+  if (!args.config.files.empty()) result->settings["config"] = fmt::format("{}", fmt::join(args.config.files, ", "));
   if (!single_frame_defaults.empty()) result->settings["single_frame_defaults"] = single_frame_defaults;
   if (PerturbsInitialGuesses(args)) {
     result->settings["perturb_initial"] =
@@ -393,9 +374,7 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
   const auto thread_limit = LimitThreads(args.threads);
   std::string single_frame_defaults;
   const io::Dataset dataset = OpenDatasetWithDefaults(args.dataset, args.cost, &options, &single_frame_defaults);
-  std::vector<std::string> setting_words = args.setting_words;
-  if (const int exit_code = ApplySettingToDataset(args, dataset, &options, &setting_words);
-      exit_code != kExitSuccess) {
+  if (const int exit_code = CheckSettingFitsDataset(args, dataset, options); exit_code != kExitSuccess) {
     return exit_code;
   }
 
@@ -419,7 +398,7 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
   LogPairReports(outcome.pairs);
   CalibrationResult& result = outcome.result;
   result.timings_s["load"] = load_s;
-  RecordCommandSettings(args, setting_words, single_frame_defaults, &result);
+  RecordCommandSettings(args, single_frame_defaults, &result);
   YAML::Node extra(YAML::NodeType::Map);
   CheckAnswer(args, options, calibrator, start, &result, &extra);
   result.timings_s["total"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -430,6 +409,8 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
   }
   // The per-alternation history (lower and upper solutions per pair) for the paper's Fig. 4 and 6.
   if (outcome.alternating) extra["history"] = io::AlternatingHistoryYaml(*outcome.alternating);
+  // Every option as used: `scenecal calibrate DATASET --config RESULT` repeats the run.
+  extra["options"] = io::OptionsYaml(RunOptions(args.command));
   // The report first: it takes a while, and an interruption or a failure
   // there must not leave a result file without the report asked for.
   if (!args.report_dir.empty()) {
@@ -444,9 +425,7 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
 // MPI starts before any data is read (every rank loads the same inputs). A
 // rank that fails ends every rank at once: the others would otherwise wait in
 // a collective for it forever.
-int Run(const CalibrateArguments& given) {
-  CalibrateArguments args = given;
-  ApplySetting(&args);
+int Run(const CalibrateArguments& args) {
   ProcessGroup group(args.scheme == "alt" ? args.alternating.backend : "threads");
   if (!group.distributed()) return RunCalibration(args, group);
   if (!group.IsRoot()) spdlog::set_level(spdlog::level::warn);
@@ -565,7 +544,8 @@ void AddAfterCalibrationOptions(CLI::App* command, CalibrateArguments* args) {
       ->capture_default_str();
   command->add_option("--report", args->report_dir,
                       "Write an HTML report with convergence, cost slices and overlays into this directory "
-                      "(report.html and PNGs)");
+                      "(report.html and PNGs)")
+      ->configurable(false);  // an output path: on the command line only
 }
 
 // The alt scheme's options (the lower levels' backend, the alternations, the penalty).
@@ -583,7 +563,7 @@ void AddAlternatingOptions(CLI::App* command, AlternatingArguments* alt) {
                       "rest stay in the sharp stage and only tighten the penalty until the two levels agree "
                       "(0: over all). With --alternations 40 --stage-alternations 20 on the push-broom setting "
                       "the levels settle within 0.001 deg after 26-32 alternations without moving the answer "
-                      "(BENCHMARK.md)")
+                      "(docs/findings.md)")
       ->check(CLI::Range(0, 10000))
       ->capture_default_str();
   command->add_option("--shrink", alt->shrink, "alt: covariance factor w of the penalty, P(i+1) = w P(i), in (0, 1)")
@@ -635,7 +615,9 @@ CommandRunner AddCalibrateCommand(CLI::App& app) {
   command->add_option("dataset", args->dataset, "Dataset folder (docs/FORMAT.md)")
       ->required()
       ->check(CLI::ExistingDirectory);
-  command->add_option("-o,--output", args->output, "Result file (YAML, written atomically)")->required();
+  command->add_option("-o,--output", args->output, "Result file (YAML, written atomically)")
+      ->required()
+      ->configurable(false);
   command->add_option("--scheme", args->scheme,
                       "alt: the paper's alternating optimisation (a lower-level optimiser per camera/lidar pair, an "
                       "upper-level least squares through the known camera transforms, quadratic penalties with a "
@@ -644,8 +626,7 @@ CommandRunner AddCalibrateCommand(CLI::App& app) {
       ->check(CLI::IsMember({"once", "joint", "alt"}))
       ->capture_default_str();
   args->command = command;
-  command->add_option("--setting", args->setting, SettingHelp())
-      ->check(CLI::IsMember(SettingNames()));
+  AddConfigOptions(command, &args->config);
   AddCostOptions(command, &args->cost);
   AddMotionCorrectionOptions(command, &args->motion);
   AddSolverOptions(command, args.get());
@@ -654,7 +635,10 @@ CommandRunner AddCalibrateCommand(CLI::App& app) {
   AddStartOptions(command, args.get());
   AddAfterCalibrationOptions(command, args.get());
   AddAlternatingOptions(command, &args->alternating);
-  return [args] { return Run(*args); };
+  return [args] {
+    args->applied = ApplyConfiguration(args->command, args->config);
+    return Run(*args);
+  };
 }
 
 }  // namespace scenecal::cli

@@ -20,17 +20,19 @@
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
+#include <yaml-cpp/yaml.h>
 
 #include "cli/commands.hpp"
+#include "cli/config.hpp"
 #include "cli/cost_arguments.hpp"
 #include "cli/load_input.hpp"
-#include "cli/setting.hpp"
 #include "cli/validators.hpp"
 #include "core/calibrate_alternating.hpp"
 #include "core/calibrator.hpp"
 #include "core/geometry.hpp"
 #include "io/dataset.hpp"
 #include "io/error.hpp"
+#include "io/option_file.hpp"
 #include "io/output_path.hpp"
 #include "io/staged_output.hpp"
 #include "report/html_report.hpp"
@@ -50,7 +52,6 @@ struct ExperimentArguments {
   double perturb_rotation_deg = 3.0;
   std::vector<std::string> schemes = {"once", "joint", "alt"};
   std::vector<std::string> metrics = {"nid", "mi"};
-  int scenes = kCoreDefaults.scenes.scenes_per_camera;
   int alternations = kCoreDefaults.alternating.max_alternations;
   int stage_alternations = kCoreDefaults.alternating.stage_alternations;  // alt: stages over the first N (0 = all)
   // alt: where the penalty's sigmas hold.
@@ -61,38 +62,14 @@ struct ExperimentArguments {
   int max_iterations = kCoreDefaults.nelder_mead.max_iterations;
   std::string lower_solver = LowerSolverName(kCoreDefaults.lower_solver);  // lbfgs: B-spline binning for every run
   std::string stages = StageScheduleText(kCoreDefaults.stages);
-  double swathe_length_m = kCoreDefaults.scenes.swathe_length_m;
   int overlay_scenes = 1;
   bool force = false;
-  std::string setting;                // --setting (cli/setting.hpp)
-  const CLI::App* command = nullptr;  // to tell the options given on the command line from the defaults
+  CostArguments cost;              // scenes, swathes, histogram, normalisation, occlusion (not the metric)
+  MotionCorrectionArguments motion;
+  ConfigArguments config;          // --config, --setting
+  AppliedConfiguration applied;    // what the preset set (ApplyConfiguration)
+  CLI::App* command = nullptr;     // its options, recorded in OUTPUT/options.yaml
 };
-
-// The options of args->setting: those the experiment has on its command line
-// (when not given there) into *args, the others into *options; what was set
-// is returned as typed. --refresh-border follows the images (set once the
-// dataset is open).
-std::vector<std::string> ApplySetting(ExperimentArguments* args, CalibrationOptions* options) {
-  std::vector<std::string> words;
-  const bool with_alt = std::find(args->schemes.begin(), args->schemes.end(), "alt") != args->schemes.end();
-  for (const SettingOption& option : SettingOptions(args->setting, with_alt)) {
-    if (GivenOnCommandLine(args->command, option.name)) continue;  // the user's own value wins
-    if (option.name == "--swathe-length") args->swathe_length_m = option.number;
-    if (option.name == "--lower-solver") args->lower_solver = option.value;
-    if (option.name == "--alternations") args->alternations = static_cast<int>(option.number);
-    if (option.name == "--stage-alternations") args->stage_alternations = static_cast<int>(option.number);
-    if (option.name == "--range-split") options->range_split_m = option.number;
-    if (option.name == "--thin") options->thin_max_points_per_cell = static_cast<int>(option.number);
-    if (option.name == "--image-highpass") options->normalisation.intensity_highpass_width_fraction = option.number;
-    if (option.name == "--motion-correction") {
-      MotionCorrectionArguments motion;  // calibrate's defaults for the rest
-      motion.terms = MotionCorrectionTerms(option.value);
-      ApplyMotionCorrectionArguments(motion, options);
-    }
-    words.push_back(option.name + " " + option.value);
-  }
-  return words;
-}
 
 // Everything recorded of one calibration for one lidar.
 struct RunRecord {
@@ -253,11 +230,11 @@ double SecondsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
-// The calibration options every run starts from (--setting's already in
-// *options); kExitInvalidInput (logged) when they are invalid.
+// The calibration options every run starts from; kExitInvalidInput (logged)
+// when they are invalid.
 int MakeRunOptions(const ExperimentArguments& args, CalibrationOptions* options) {
-  options->scenes.scenes_per_camera = args.scenes;
-  options->scenes.swathe_length_m = args.swathe_length_m;
+  ApplyCostArguments(args.cost, options);  // each run then sets its metric
+  ApplyMotionCorrectionArguments(args.motion, options);
   options->nelder_mead.max_iterations = args.max_iterations;
   options->nelder_mead.initial_step_translation_m = 0.05;
   options->nelder_mead.initial_step_rotation_rad = RadiansFromDegrees(1.0);
@@ -342,30 +319,30 @@ int SimulateDataset(const ExperimentArguments& args, const std::filesystem::path
   return kExitSuccess;
 }
 
-// Fits the options to the dataset: --setting (whether it fits the data, its
-// --refresh-border for these images) and calibrate's single-frame defaults,
-// both recorded in *settings. kExitInvalidInput (logged) when the setting does
+// Fits the options to the dataset: the refresh border for these images,
+// --setting (whether it fits the data) and calibrate's single-frame defaults,
+// the last two recorded in *settings. kExitInvalidInput (logged) when the setting does
 // not fit or the dataset lacks the truth of a lidar.
 int FitToDataset(const ExperimentArguments& args, const io::Dataset& dataset, const std::string& dataset_shown,
-                 CalibrationOptions* options, std::vector<std::string>* setting_words,
-                 std::map<std::string, std::string>* settings) {
+                 CalibrationOptions* options, std::map<std::string, std::string>* settings) {
   if (!dataset.ground_truth) {
     spdlog::error("{}: the experiment compares with the truth and needs ground_truth.yaml", dataset_shown);
     return kExitInvalidInput;
   }
-  if (!args.setting.empty()) {
-    const std::string misfit = SettingMisfit(dataset.rig, dataset.trajectory.size());
+  options->cost.swathe.refresh_border_px = RefreshBorderPx(args.cost.refresh_border, dataset.rig);
+  const AppliedConfiguration& applied = args.applied;
+  if (!applied.setting.empty()) {
+    const std::string misfit =
+        applied.requires_push_broom_drive ? PushBroomDriveMisfit(dataset.rig, dataset.trajectory.size()) : "";
     if (!misfit.empty()) {
-      spdlog::error("--setting {} on {}: {}", args.setting, dataset_shown, misfit);
+      spdlog::error("--setting {} on {}: {}", applied.setting, dataset_shown, misfit);
       return kExitInvalidInput;
     }
-    options->cost.swathe.refresh_border_px = SettingRefreshBorderPx(dataset.rig);
-    setting_words->push_back(fmt::format("--refresh-border {:g}", options->cost.swathe.refresh_border_px));
-    spdlog::info("--setting {}: {}", args.setting, fmt::join(*setting_words, " "));
-    (*settings)["setting"] = fmt::format("{}: {}", args.setting, fmt::join(*setting_words, " "));
+    spdlog::info("--setting {}: {} (refresh border {:g} px)", applied.setting,
+                 fmt::join(applied.setting_words, " "), options->cost.swathe.refresh_border_px);
+    (*settings)["setting"] = fmt::format("{}: {}", applied.setting, fmt::join(applied.setting_words, " "));
   }
-  // The experiment has no --bins: single-frame 3D-lidar data gets calibrate's automatic defaults.
-  const std::string single_frame_defaults = ApplySingleFrameDefaults(dataset, false, options);
+  const std::string single_frame_defaults = ApplySingleFrameDefaults(dataset, args.cost.BinsGiven(), options);
   if (!single_frame_defaults.empty()) {
     spdlog::info("single-frame 3D-lidar data: {}", single_frame_defaults);
     (*settings)["single_frame_defaults"] = single_frame_defaults;
@@ -530,8 +507,8 @@ report::ExperimentReportData MakeReportData(const ExperimentArguments& args, con
                                          args.perturb_translation_m, args.perturb_rotation_deg, args.seed);
   data.settings["schemes"] = fmt::format("{}", fmt::join(args.schemes, ", "));
   data.settings["metrics"] = fmt::format("{}", fmt::join(args.metrics, ", "));
-  data.settings["scenes per camera"] = std::to_string(args.scenes);
-  data.settings["swathe length"] = fmt::format("{} m", args.swathe_length_m);
+  data.settings["scenes per camera"] = std::to_string(args.cost.scenes);
+  data.settings["swathe length"] = fmt::format("{} m", args.cost.swathe_length_m);
   data.settings["alternations (alt)"] =
       std::to_string(args.alternations) +
       (args.stage_alternations > 0 ? ", the stages over the first " + std::to_string(args.stage_alternations) : "") +
@@ -579,16 +556,14 @@ void AddOverlays(const ExperimentArguments& args, const CalibrationOptions& opti
   }
 }
 
-int RunExperiment(const ExperimentArguments& given) {
+int RunExperiment(const ExperimentArguments& args) {
   const auto start = std::chrono::steady_clock::now();
   std::string why;
-  if (!CheckArguments(given, &why)) {
+  if (!CheckArguments(args, &why)) {
     spdlog::error("{}", why);
     return kExitInvalidInput;
   }
   CalibrationOptions options;
-  ExperimentArguments args = given;
-  std::vector<std::string> setting_words = ApplySetting(&args, &options);
   if (const int exit_code = MakeRunOptions(args, &options); exit_code != kExitSuccess) return exit_code;
   const auto thread_limit = LimitThreads(args.threads);
 
@@ -613,14 +588,14 @@ int RunExperiment(const ExperimentArguments& given) {
   }
 
   const io::Dataset dataset = io::OpenDataset(dataset_place.path);
-  if (const int exit_code = FitToDataset(args, dataset, dataset_place.shown, &options, &setting_words, &settings);
+  if (const int exit_code = FitToDataset(args, dataset, dataset_place.shown, &options, &settings);
       exit_code != kExitSuccess) {
     return exit_code;
   }
   const GroundTruth& truth = *dataset.ground_truth;
   CalibrationInput input;
   input.rig = dataset.rig;
-  const LoadedScenes loaded = SelectAndLoadScenes(dataset, options.scenes, &input);
+  const LoadedScenes loaded = SelectAndLoadScenes(dataset, options.scenes, &input, args.cost.ImageChannel());
   spdlog::info("loaded {} images, {} scans, {} lidar points in {:.1f} s", loaded.images, loaded.scans,
                loaded.lidar_points, SecondsSince(start));
 
@@ -640,6 +615,10 @@ int RunExperiment(const ExperimentArguments& given) {
   const std::string summary = SummaryTable(experiment.runs, data.methods);
   fmt::print("{}", summary);
   io::WriteFileAtomically((output / "summary.md").string(), summary);
+  // Every option as used: `scenecal experiment --config OUTPUT/options.yaml` repeats the experiment.
+  YAML::Emitter options_yaml;
+  options_yaml << io::OptionsYaml(RunOptions(args.command));
+  io::WriteFileAtomically((output / "options.yaml").string(), std::string(options_yaml.c_str()) + "\n");
   staged.CommitEntries();
   bool any_success = false;
   for (const RunRecord& run : experiment.runs) any_success = any_success || run.success;
@@ -667,8 +646,10 @@ CommandRunner AddExperimentCommand(CLI::App& app) {
   command->add_option("--dataset", args->dataset,
                       "Use this dataset (docs/FORMAT.md, with ground_truth.yaml) instead of simulating one")
       ->check(CLI::ExistingDirectory);
-  command->add_option("-o,--output", args->output, "Output directory (runs.csv, report.html, PNGs, dataset/)")
-      ->required();
+  command->add_option("-o,--output", args->output,
+                      "Output directory (runs.csv, report.html, options.yaml, PNGs, dataset/)")
+      ->required()
+      ->configurable(false);
   command->add_option("--seed", args->seed, "Seed of the simulation and of the guesses' random directions")
       ->capture_default_str();
   command->add_option("--guesses", args->guesses, "Initial guesses (trials) per scheme and metric")
@@ -689,9 +670,6 @@ CommandRunner AddExperimentCommand(CLI::App& app) {
   command->add_option("--metrics", args->metrics, "Comma-separated metrics: nid, mi")
       ->delimiter(',')
       ->check(CLI::IsMember({"nid", "mi"}))
-      ->capture_default_str();
-  command->add_option("--scenes", args->scenes, "Camera frames (scenes) per camera")
-      ->check(CLI::Range(1, 100000))
       ->capture_default_str();
   command->add_option("--alternations", args->alternations, "alt: maximum number of alternations (the paper: 20)")
       ->check(CLI::Range(1, 10000))
@@ -724,17 +702,19 @@ CommandRunner AddExperimentCommand(CLI::App& app) {
   command->add_option("--stages", args->stages,
                       "Coarse-to-fine schedule, as calibrate's --stages (SCALE[:BLUR[:RESTARTS]],...)")
       ->capture_default_str();
-  command->add_option("--swathe-length", args->swathe_length_m, "Swathe length L in metres")
-      ->check(kPositive)
-      ->capture_default_str();
   command->add_option("--overlay-scenes", args->overlay_scenes,
                       "Scenes per camera/lidar pair shown as overlays (first guess, alt-nid when run); 0 = none")
       ->check(CLI::Range(0, 100))
       ->capture_default_str();
   command->add_flag("--force", args->force, "Replace OUTPUT/dataset when simulating into a non-empty one");
+  AddCostOptionsExceptMetric(command, &args->cost);
+  AddMotionCorrectionOptions(command, &args->motion);
+  AddConfigOptions(command, &args->config);
   args->command = command;
-  command->add_option("--setting", args->setting, SettingHelp())->check(CLI::IsMember(SettingNames()));
-  return [args] { return RunExperiment(*args); };
+  return [args] {
+    args->applied = ApplyConfiguration(args->command, args->config);
+    return RunExperiment(*args);
+  };
 }
 
 }  // namespace scenecal::cli

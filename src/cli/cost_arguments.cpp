@@ -1,7 +1,7 @@
 #include "cli/cost_arguments.hpp"
 
 #include <algorithm>
-#include <sstream>
+#include <cmath>
 
 #include <spdlog/spdlog.h>
 
@@ -13,11 +13,8 @@ namespace scenecal::cli {
 
 namespace {
 
-// The metric and which scans make up a scene (the frames, the swathe window).
+// Which scans make up a scene (the frames, the swathe window).
 void AddSceneOptions(CLI::App* command, CostArguments* args) {
-  command->add_option("--metric", args->metric, "nid (normalised information distance) or mi (mutual information)")
-      ->check(CLI::IsMember({"nid", "mi"}))
-      ->capture_default_str();
   command->add_option("--scenes", args->scenes, "Camera frames (scenes) per camera, spread over the drive by distance")
       ->check(CLI::Range(1, 100000))
       ->capture_default_str();
@@ -66,7 +63,7 @@ void AddHistogramOptions(CLI::App* command, CostArguments* args) {
                       "relation to the lidar's infrared reflectance differs by material; 0 = off. Only in the "
                       "stages without blur (the blurred coarse stages keep the whole image). With the recommended "
                       "push-broom setting and exact odometry 0.0234 (30 px at 1280) took the median rotation error "
-                      "from 0.14-0.31 to 0.03-0.11 deg; with drifting odometry it made things worse (BENCHMARK.md)")
+                      "from 0.14-0.31 to 0.03-0.11 deg; with drifting odometry it made things worse (docs/findings.md)")
       ->check(CLI::Range(0.0, 0.5))
       ->capture_default_str();
   command->add_option("--image-channel", args->image_channel,
@@ -122,14 +119,14 @@ void AddVisibilityOptions(CLI::App* command, CostArguments* args) {
                       "Z-buffer: the absolute part of the margin, metres")
       ->check(kNonNegative)
       ->capture_default_str();
-  command->add_option("--refresh-border", args->refresh_border_px,
+  command->add_option("--refresh-border", args->refresh_border,
                       "Score only the points at least this many pixels inside the image where visibility is "
                       "refreshed (each stage): a fixed set instead of points entering and leaving at the border, so "
-                      "the cost is the smooth function L-BFGS's analytic gradient describes; 0 = off. Part of the "
-                      "recommended push-broom setting with --lower-solver lbfgs and 30 m swathes (3.75 % of the "
-                      "image width: 48 px at 1280). With 10 m swathes it was better on one simulated world and worse "
-                      "on two, with the simplex mixed (BENCHMARK.md)")
-      ->check(kNonNegative)
+                      "the cost is the smooth function L-BFGS's analytic gradient describes; N% is N percent of the "
+                      "widest image's width; 0 = off. Part of the push-broom presets with --lower-solver lbfgs and "
+                      "30 m swathes (3.75%: 48 px at 1280). With 10 m swathes it was better on one simulated world "
+                      "and worse on two, with the simplex mixed (docs/findings.md, \"Tried and not kept\")")
+      ->check(kPixelsOrPercent)
       ->capture_default_str();
 }
 
@@ -168,6 +165,13 @@ void AddPointSelectionOptions(CLI::App* command, CostArguments* args) {
 }  // namespace
 
 void AddCostOptions(CLI::App* command, CostArguments* args) {
+  command->add_option("--metric", args->metric, "nid (normalised information distance) or mi (mutual information)")
+      ->check(CLI::IsMember({"nid", "mi"}))
+      ->capture_default_str();
+  AddCostOptionsExceptMetric(command, args);
+}
+
+void AddCostOptionsExceptMetric(CLI::App* command, CostArguments* args) {
   AddSceneOptions(command, args);
   AddHistogramOptions(command, args);
   AddScanSelectionOptions(command, args);
@@ -192,7 +196,6 @@ void ApplyCostArguments(const CostArguments& args, CalibrationOptions* options) 
   options->cost.swathe.occlusion_cell_px = args.occlusion_cell_px;
   options->cost.swathe.occlusion_relative_margin = args.occlusion_relative_margin;
   options->cost.swathe.occlusion_absolute_margin_m = args.occlusion_absolute_margin_m;
-  options->cost.swathe.refresh_border_px = args.refresh_border_px;
   options->cost.swathe.min_range_m = args.min_range_m;
   options->cost.swathe.max_range_m = args.max_range_m;
   options->range_split_m = args.range_split_m;
@@ -215,6 +218,13 @@ void ApplyCostArguments(const CostArguments& args, CalibrationOptions* options) 
   options->scenes.odometry_scale = args.odometry_scale_percent / 100.0;
 }
 
+double RefreshBorderPx(const std::string& text, const Rig& rig) {
+  if (text.empty() || text.back() != '%') return std::stod(text);  // checked by kPixelsOrPercent
+  int widest_px = 0;
+  for (const CameraInfo& camera : rig.cameras) widest_px = std::max(widest_px, camera.model.width);
+  return std::round(std::stod(text.substr(0, text.size() - 1)) / 100.0 * widest_px);
+}
+
 std::unique_ptr<tbb::global_control> LimitThreads(int threads) {
   if (threads <= 0) return nullptr;
   return std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
@@ -225,6 +235,7 @@ io::Dataset OpenDatasetWithDefaults(const std::string& path, const CostArguments
                                     std::string* single_frame_defaults) {
   spdlog::info("opening {}", path);
   io::Dataset dataset = io::OpenDataset(path);
+  options->cost.swathe.refresh_border_px = RefreshBorderPx(args.refresh_border, dataset.rig);
   *single_frame_defaults = ApplySingleFrameDefaults(dataset, args.BinsGiven(), options);
   if (!single_frame_defaults->empty()) spdlog::info("single-frame 3D-lidar data: {}", *single_frame_defaults);
   return dataset;
@@ -275,13 +286,6 @@ void ApplyMotionCorrectionArguments(const MotionCorrectionArguments& args, Calib
   options->motion.initial_step_scale = std::min(options->motion.initial_step_scale, options->motion.max_scale);
   options->motion.initial_step_rate_rad_per_m =
       std::min(options->motion.initial_step_rate_rad_per_m, options->motion.max_rate_rad_per_m);
-}
-
-std::vector<std::string> MotionCorrectionTerms(const std::string& comma_list) {
-  std::vector<std::string> terms;
-  std::istringstream list(comma_list);
-  for (std::string term; std::getline(list, term, ',');) terms.push_back(term);
-  return terms;
 }
 
 }  // namespace scenecal::cli

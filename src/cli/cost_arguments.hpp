@@ -13,6 +13,7 @@
 #include <tbb/global_control.h>
 
 #include "core/calibrate.hpp"
+#include "core/number_text.hpp"
 #include "io/dataset.hpp"
 
 namespace scenecal::cli {
@@ -41,7 +42,8 @@ struct CostArguments {
   // Hidden if depth > nearest * (1 + relative) + absolute.
   double occlusion_relative_margin = kCoreDefaults.cost.swathe.occlusion_relative_margin;
   double occlusion_absolute_margin_m = kCoreDefaults.cost.swathe.occlusion_absolute_margin_m;
-  double refresh_border_px = kCoreDefaults.cost.swathe.refresh_border_px;
+  // Pixels, or N% of the widest image (RefreshBorderPx).
+  std::string refresh_border = NumberText(kCoreDefaults.cost.swathe.refresh_border_px);
   double min_range_m = kCoreDefaults.cost.swathe.min_range_m;  // lidar points nearer than this (lidar frame) are dropped
   double max_range_m = kCoreDefaults.cost.swathe.max_range_m;  // and farther than this
   double range_split_m = kCoreDefaults.range_split_m;          // 0 = one histogram per scene
@@ -60,9 +62,12 @@ struct CostArguments {
 
 // Registers the cost options on `command` (values validated by CLI11).
 void AddCostOptions(CLI::App* command, CostArguments* args);
+// The same without --metric, for a command that runs several metrics.
+void AddCostOptionsExceptMetric(CLI::App* command, CostArguments* args);
 
 // Copies the parsed cost options into `options` (metric, histogram, swathe,
-// occlusion, normalisation, scene selection, trimming). With the excess-green
+// occlusion, normalisation, scene selection, trimming); the refresh border
+// follows the images (RefreshBorderPx, once the dataset is open). With the excess-green
 // channel the image intensity is rank-normalised unless --normalise-intensity
 // was given (its values crowd a narrow band of [0, 1]).
 void ApplyCostArguments(const CostArguments& args, CalibrationOptions* options);
@@ -76,14 +81,15 @@ struct MotionCorrectionArguments {
 };
 void AddMotionCorrectionOptions(CLI::App* command, MotionCorrectionArguments* args);
 void ApplyMotionCorrectionArguments(const MotionCorrectionArguments& args, CalibrationOptions* options);
-// The terms of a --motion-correction value written as one comma list (as a --setting gives it).
-std::vector<std::string> MotionCorrectionTerms(const std::string& comma_list);
+// --refresh-border in pixels: the value, or N% of the rig's widest image.
+double RefreshBorderPx(const std::string& text, const Rig& rig);
 
 // Caps TBB's worker threads at `threads` while the returned object lives;
 // nothing (no cap) for 0 = all hardware threads.
 std::unique_ptr<tbb::global_control> LimitThreads(int threads);
 
-// Opens the dataset at `path` (logged) and applies the single-frame defaults
+// Opens the dataset at `path` (logged), sets the refresh border for its
+// images (RefreshBorderPx) and applies the single-frame defaults
 // for the options the user did not set (ApplySingleFrameDefaults; logged and
 // returned in *single_frame_defaults, "" when none). Throws io::InputError.
 io::Dataset OpenDatasetWithDefaults(const std::string& path, const CostArguments& args, CalibrationOptions* options,

@@ -68,7 +68,7 @@ YAML::Node ReportUncertainty(Calibrator& calibrator, CalibrationResult* result) 
     if (estimate.determined) {
       // Not FORMAT.md's `sigma`: this is the spread within the basin the
       // optimiser ended in. On weakly constrained data repeated runs from other
-      // starts land in other basins much further apart (BENCHMARK.md), so
+      // starts land in other basins much further apart (docs/findings.md), so
       // downstream tools must not read it as the calibration's uncertainty.
       entry["local_sigma_tuple"] = Numbers(estimate.sigma_tuple.data(), 6);
       entry["local_covariance_d"] = Numbers(estimate.covariance.data(), 36);  // symmetric

@@ -18,7 +18,6 @@ using detail::YamlReader;
 namespace {
 
 constexpr char kGroundTruthFormat[] = "scenecal-ground-truth/1";
-constexpr char kResultFormat[] = "scenecal-calibration/1";
 // Largest ground_truth.yaml or result file read (bytes).
 constexpr std::size_t kMaxYamlFileBytes = std::size_t{64} << 20;
 
@@ -87,7 +86,7 @@ std::string CalibrationResultToYaml(const CalibrationResult& result, const YAML:
                                                       "settings", "timings_s", "warnings"};
   YAML::Emitter out;
   out << YAML::BeginMap;
-  out << YAML::Key << "format" << YAML::Value << kResultFormat;
+  out << YAML::Key << "format" << YAML::Value << kCalibrationResultFormat;
   out << YAML::Key << "lidars" << YAML::Value << YAML::BeginMap;
   for (const LidarCalibration& lidar : result.lidars) {
     out << YAML::Key << lidar.lidar << YAML::Value << YAML::BeginMap;
@@ -156,7 +155,7 @@ CalibrationResult ParseCalibrationResult(const std::string& text, const std::str
   const YamlReader yaml(text, name);
   const YAML::Node& root = yaml.root();
   yaml.RequireMap(root, "");
-  yaml.CheckFormat(root, kResultFormat);
+  yaml.CheckFormat(root, kCalibrationResultFormat);
   CalibrationResult result;
   const YAML::Node lidars = yaml.Required(root, "", "lidars");
   yaml.CheckUniqueKeys(lidars, "lidars");

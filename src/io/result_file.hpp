@@ -21,6 +21,9 @@ GroundTruth ReadGroundTruth(const std::filesystem::path& path);
 GroundTruth ParseGroundTruth(const std::string& text, const std::string& name);
 void WriteGroundTruth(const std::filesystem::path& path, const GroundTruth& truth);
 
+// The result file's `format` value.
+inline constexpr char kCalibrationResultFormat[] = "scenecal-calibration/1";
+
 // Result file (FORMAT.md "Calibration result"), written atomically.
 void WriteCalibrationResult(const std::filesystem::path& path, const CalibrationResult& result);
 // As above, with more top-level keys appended after the standard ones (e.g. a

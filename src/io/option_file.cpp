@@ -1,0 +1,87 @@
+#include "io/option_file.hpp"
+
+#include <set>
+
+#include "io/result_file.hpp"
+#include "io/yaml_fields.hpp"
+
+namespace scenecal::io {
+
+namespace {
+
+constexpr std::size_t kMaxOptionFileBytes = std::size_t{64} << 20;  // as a result file (its history can be long)
+
+OptionFile ParseOptions(const detail::YamlReader& yaml) {
+  OptionFile file;
+  file.source = yaml.file();
+  const YAML::Node& root = yaml.root();
+  // A result file: its options block.
+  const bool is_result = root.IsMap() && root["format"].IsDefined() && root["format"].IsScalar() &&
+                         root["format"].Scalar() == kCalibrationResultFormat;
+  const YAML::Node options = is_result ? root["options"] : root;  // yaml-cpp: never reassign a node
+  const std::string field = is_result ? "options" : "";
+  if (is_result && !options.IsDefined()) {
+    yaml.Fail(root, "options", "a result file without an options block",
+              "a result written by `scenecal calibrate`, or a mapping of option names to values");
+  }
+  yaml.CheckUniqueKeys(options, field);
+  const auto where = [&](const std::string& key) { return field.empty() ? key : field + "." + key; };
+  for (const auto& entry : options) {
+    const std::string key = entry.first.Scalar();
+    const YAML::Node& value = entry.second;
+    if (key.empty() || key.front() == '-') {
+      yaml.Fail(entry.first, where(key), "a key '" + key + "'", "an option name without its leading -- (e.g. thin)");
+    }
+    if (key == "description" || key == "requires") {
+      std::string text = yaml.String(value, where(key));
+      if (key == "requires" && text != kRequiresPushBroomDrive) {
+        yaml.Fail(value, where(key), "'" + text + "'", std::string("'") + kRequiresPushBroomDrive + "'");
+      }
+      (key == "description" ? file.description : file.requires_data) = std::move(text);
+      continue;
+    }
+    OptionValue option{key, {}, value.Mark().is_null() ? 0 : value.Mark().line + 1};
+    if (value.IsScalar()) {
+      option.values.push_back(value.Scalar());
+    } else if (value.IsSequence() && value.size() > 0) {
+      for (std::size_t i = 0; i < value.size(); ++i) {
+        if (!value[i].IsScalar()) {
+          yaml.Fail(value[i], where(key) + "[" + std::to_string(i) + "]", "found " + detail::Describe(value[i]),
+                    "a value");
+        }
+        option.values.push_back(value[i].Scalar());
+      }
+    } else {
+      yaml.Fail(value, where(key), "found " + detail::Describe(value), "a value or a non-empty list of values");
+    }
+    file.options.push_back(std::move(option));
+  }
+  return file;
+}
+
+}  // namespace
+
+OptionFile ReadOptionFile(const std::filesystem::path& path) {
+  return ParseOptions(detail::YamlReader(detail::ReadTextFile(path, kMaxOptionFileBytes), path.string()));
+}
+
+OptionFile ParseOptionText(const std::string& text, const std::string& source) {
+  return ParseOptions(detail::YamlReader(text, source));
+}
+
+YAML::Node OptionsYaml(const std::vector<OptionValue>& options) {
+  YAML::Node map(YAML::NodeType::Map);
+  for (const OptionValue& option : options) {
+    if (option.values.size() == 1) {
+      map[option.name] = option.values.front();
+    } else {
+      YAML::Node list(YAML::NodeType::Sequence);
+      for (const std::string& value : option.values) list.push_back(value);
+      list.SetStyle(YAML::EmitterStyle::Flow);
+      map[option.name] = list;
+    }
+  }
+  return map;
+}
+
+}  // namespace scenecal::io
