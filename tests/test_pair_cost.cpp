@@ -259,7 +259,7 @@ TEST(PairCost, VisibilityHidesPointsBehindANearerSurface) {
 // The z-buffer compares a point with the nearest point of its cell, so on a
 // surface seen at a grazing angle (the road ahead) the far part of every cell
 // hides itself once the cell spans more depth than the margin. What the cell
-// and margin options do, measured (BENCHMARK.md: on the spinning-lidar preset
+// and margin options do, measured (docs/findings.md: on the spinning-lidar preset
 // the translation error grows with the cell).
 struct GrazingRoad {
   CameraInfo camera;

@@ -3,8 +3,8 @@
 //
 // The local uncertainty (core/uncertainty.hpp) measures the spread within
 // the basin the optimiser ended in. On a push-broom swathe the cost can be
-// flat for degrees along a tilt coupled with a shift (BENCHMARK.md, "Why the
-// tilt is weak"): the local sigma is then small, yet runs from other starts
+// flat for degrees along a tilt coupled with a shift (docs/findings.md, "A
+// push-broom lidar's tilt is weakly constrained"): the local sigma is then small, yet runs from other starts
 // end degrees apart. This check measures that directly. For each lidar the
 // joint cost (mean over cameras through the known T_base_camera) is
 // minimised again from starts turned by +-offset about each base axis
