@@ -454,7 +454,8 @@ TEST_F(CalibrateOnSimulation, CliSettingFillsTheOptionsNotGivenAndRefusesARigWit
 // result's options block, given back with --config, repeats the run exactly.
 TEST_F(CalibrateOnSimulation, CliConfigFileFillsOptionsAndAResultRepeatsItsRun) {
   const fs::path config = root_ / "options.yaml";
-  std::ofstream(config) << "scheme: joint\nscenes: 6\nthin: 2\nstages: 1\nmax-iterations: 40\nthreads: 1\n";
+  std::ofstream(config) << "scheme: joint\nscenes: 6\nthin: 2\nstages: 1\nlower-solver: lbfgs\nlbfgs-iterations: 5\n"
+                            "threads: 1\n";
   std::string text;
   const fs::path first = root_ / "config_first.yaml";
   ASSERT_EQ(RunCli("calibrate " + DatasetPath().string() + " --output " + first.string() + " --config " +
@@ -475,6 +476,10 @@ TEST_F(CalibrateOnSimulation, CliConfigFileFillsOptionsAndAResultRepeatsItsRun) 
   EXPECT_EQ(options["metric"].as<std::string>(), "nid");  // the defaults too: a later version's keep this run's
   EXPECT_FALSE(options["output"].IsDefined());
   EXPECT_FALSE(options["config"].IsDefined());
+  // Automatic defaults are chosen again, not recorded: L-BFGS brings B-spline binning.
+  EXPECT_EQ(settings["binning"].as<std::string>(), "bspline");
+  EXPECT_FALSE(options["binning"].IsDefined());
+  EXPECT_FALSE(options["bins"].IsDefined());
   // Given back: the same answer to the last digit, the same options.
   const fs::path again = root_ / "config_again.yaml";
   ASSERT_EQ(RunCli("calibrate " + DatasetPath().string() + " --output " + again.string() + " --config " +

@@ -13,7 +13,6 @@
 #include <map>
 #include <optional>
 #include <random>
-#include <regex>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -275,7 +274,7 @@ struct DatasetPlace {
 
 // Simulates --preset into staging/dataset, which becomes final_output/dataset
 // at the end; records the simulation in *settings. kExitInvalidInput (logged)
-// for a bad --image-size or simulation.
+// for a bad simulation.
 int SimulateDataset(const ExperimentArguments& args, const std::filesystem::path& staging,
                     const std::filesystem::path& final_output, DatasetPlace* place,
                     std::map<std::string, std::string>* settings) {
@@ -284,16 +283,7 @@ int SimulateDataset(const ExperimentArguments& args, const std::filesystem::path
   simulation.seed = args.seed;
   simulation.distance_m = args.distance_m;
   simulation.overwrite = args.force;
-  if (!args.image_size.empty()) {
-    std::smatch match;
-    const std::regex pattern(R"(^(\d{1,5})[xX](\d{1,5})$)");
-    if (!std::regex_match(args.image_size, match, pattern)) {
-      spdlog::error("--image-size: expected WxH (e.g. 640x480), got '{}'", args.image_size);
-      return kExitInvalidInput;
-    }
-    simulation.image_width = std::stoi(match[1]);
-    simulation.image_height = std::stoi(match[2]);
-  }
+  if (!args.image_size.empty()) ParseImageSize(args.image_size, &simulation.image_width, &simulation.image_height);
   std::string why;
   if (!simulation.IsValid(&why)) {
     spdlog::error("simulation: {}", why);
@@ -687,7 +677,8 @@ CommandRunner AddExperimentCommand(CLI::App& app) {
       ->check(kNonNegative)
       ->capture_default_str();
   command->add_option("--image-size", args->image_size,
-                      "Simulated image size WxH (default: the simulator's 1280x960)");
+                      "Simulated image size WxH (default: the simulator's 1280x960)")
+      ->check(kImageSize);
   command->add_option("--distance", args->distance_m, "Simulated drive length in metres")
       ->check(kPositive)
       ->capture_default_str();

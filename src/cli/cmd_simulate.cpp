@@ -2,13 +2,13 @@
 #include <algorithm>
 #include <cstdio>
 #include <memory>
-#include <regex>
 #include <string>
 #include <vector>
 
 #include <spdlog/spdlog.h>
 
 #include "cli/commands.hpp"
+#include "cli/validators.hpp"
 #include "io/output_path.hpp"
 #include "sim/simulator.hpp"
 
@@ -43,6 +43,7 @@ CommandRunner AddSimulateCommand(CLI::App& app) {
   cmd->add_option("--speed", o.speed_mps, "Mean speed (m/s)")->capture_default_str();
   cmd->add_option("--image-rate", o.image_rate_hz, "Images per second per camera (Hz)")->capture_default_str();
   cmd->add_option("--image-size", args->image_size, "Image size WxH (intrinsics scale from 1280x960)")
+      ->check(kImageSize)
       ->default_str("1280x960");
   cmd->add_option("--perturb-translation", o.perturb_translation_m,
                   "Initial guess in rig.yaml = truth moved by this much (m), per lidar")
@@ -92,16 +93,7 @@ CommandRunner AddSimulateCommand(CLI::App& app) {
       return std::find(args->drift_parts.begin(), args->drift_parts.end(), part) != args->drift_parts.end();
     };
     options.odometry_drift_parts = {has_part("scale-bias"), has_part("scale-waves"), has_part("rates")};
-    if (!args->image_size.empty()) {
-      std::smatch match;
-      const std::regex pattern(R"(^(\d{1,5})[xX](\d{1,5})$)");
-      if (!std::regex_match(args->image_size, match, pattern)) {
-        spdlog::error("--image-size: expected WxH (e.g. 640x480), got '{}'", args->image_size);
-        return kExitInvalidInput;
-      }
-      options.image_width = std::stoi(match[1]);
-      options.image_height = std::stoi(match[2]);
-    }
+    if (!args->image_size.empty()) ParseImageSize(args->image_size, &options.image_width, &options.image_height);
     std::string why;
     if (!options.IsValid(&why)) {
       spdlog::error("simulate: {}", why);

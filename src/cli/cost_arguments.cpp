@@ -29,6 +29,9 @@ void AddSceneOptions(CLI::App* command, CostArguments* args) {
 }
 
 // The joint histogram and what the images and the reflectance contribute to it.
+// --bins, --binning and --normalise-intensity have automatic defaults (their
+// help says which): no default string, so that a result records them only
+// when they were set, and --config RESULT chooses them again the same way.
 void AddHistogramOptions(CLI::App* command, CostArguments* args) {
   args->bins_option =
       command
@@ -36,15 +39,13 @@ void AddHistogramOptions(CLI::App* command, CostArguments* args) {
                        "Histogram bins per variable (reflectance and intensity). Default: 32, but " +
                            std::to_string(kSingleFrameBins) +
                            " on single-frame 3D-lidar data (a static dataset, e.g. from import opencalib)")
-          ->check(CLI::Range(2, 512))
-          ->capture_default_str();
+          ->check(CLI::Range(2, 512));
   args->binning_option =
       command
           ->add_option("--binning", args->binning,
                        "hard (one bin per sample) or bspline (cubic B-spline Parzen window, smooth). Default: hard, "
                        "but bspline with --lower-solver lbfgs")
-          ->check(CLI::IsMember({"hard", "bspline"}))
-          ->capture_default_str();
+          ->check(CLI::IsMember({"hard", "bspline"}));
   command->add_option("--normalise", args->normalise_reflectance,
                       "Mapping of lidar reflectance to [0, 1] per scene: none, minmax (1st..99th percentile), rank "
                       "(histogram equalisation)")
@@ -55,8 +56,7 @@ void AddHistogramOptions(CLI::App* command, CostArguments* args) {
           ->add_option("--normalise-intensity", args->normalise_intensity,
                        "Mapping of image intensity to [0, 1] per image: none, minmax, rank. Default: none, but rank "
                        "with --image-channel exg")
-          ->check(CLI::IsMember({"none", "minmax", "rank"}))
-          ->capture_default_str();
+          ->check(CLI::IsMember({"none", "minmax", "rank"}));
   command->add_option("--image-highpass", args->image_highpass,
                       "Subtract each image's local mean (Gaussian, sigma = this fraction of the image width) before "
                       "scoring, so the texture and edges count and not the brightness of whole regions, whose "

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <exception>
+#include <regex>
 #include <string>
 
 #include <CLI/CLI.hpp>
@@ -53,5 +54,22 @@ inline const CLI::Validator kPixelsOrPercent(
       return {};
     },
     "PIXELS|N%");
+
+// An image size WxH (e.g. 640x480), each side 1 to 5 digits.
+inline bool ParseImageSize(const std::string& text, int* width, int* height) {
+  std::smatch match;
+  static const std::regex pattern(R"(^(\d{1,5})[xX](\d{1,5})$)");
+  if (!std::regex_match(text, match, pattern)) return false;
+  *width = std::stoi(match[1]);
+  *height = std::stoi(match[2]);
+  return true;
+}
+inline const CLI::Validator kImageSize(
+    [](std::string& input) -> std::string {
+      int width = 0;
+      int height = 0;
+      return ParseImageSize(input, &width, &height) ? std::string() : input + " is not WxH (e.g. 640x480)";
+    },
+    "WxH");
 
 }  // namespace scenecal::cli

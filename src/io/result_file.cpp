@@ -55,26 +55,28 @@ GroundTruth ParseGroundTruth(const std::string& text, const std::string& name) {
   return truth;
 }
 
-void WriteGroundTruth(const fs::path& path, const GroundTruth& truth) {
-  YAML::Emitter out;
-  out << YAML::BeginMap;
-  out << YAML::Key << "format" << YAML::Value << kGroundTruthFormat;
-  out << YAML::Key << "lidars" << YAML::Value << YAML::BeginMap;
-  for (const auto& [name, transform] : truth.T_base_lidar) {
-    out << YAML::Key << name << YAML::Value << YAML::BeginMap << YAML::Key << "T_base_lidar" << YAML::Value;
+namespace {
+
+// `key: {name: {transform_key: [x, y, z, roll, pitch, yaw]}, ...}`
+void EmitTransformMap(YAML::Emitter& out, const char* key, const char* transform_key,
+                      const std::map<std::string, Eigen::Isometry3d>& transforms) {
+  out << YAML::Key << key << YAML::Value << YAML::BeginMap;
+  for (const auto& [name, transform] : transforms) {
+    out << YAML::Key << name << YAML::Value << YAML::BeginMap << YAML::Key << transform_key << YAML::Value;
     detail::EmitTransform(out, transform);
     out << YAML::EndMap;
   }
   out << YAML::EndMap;
-  if (!truth.T_base_camera.empty()) {
-    out << YAML::Key << "cameras" << YAML::Value << YAML::BeginMap;
-    for (const auto& [name, transform] : truth.T_base_camera) {
-      out << YAML::Key << name << YAML::Value << YAML::BeginMap << YAML::Key << "T_base_camera" << YAML::Value;
-      detail::EmitTransform(out, transform);
-      out << YAML::EndMap;
-    }
-    out << YAML::EndMap;
-  }
+}
+
+}  // namespace
+
+void WriteGroundTruth(const fs::path& path, const GroundTruth& truth) {
+  YAML::Emitter out;
+  out << YAML::BeginMap;
+  out << YAML::Key << "format" << YAML::Value << kGroundTruthFormat;
+  EmitTransformMap(out, "lidars", "T_base_lidar", truth.T_base_lidar);
+  if (!truth.T_base_camera.empty()) EmitTransformMap(out, "cameras", "T_base_camera", truth.T_base_camera);
   out << YAML::EndMap;
   WriteFileAtomically(path.string(), std::string(out.c_str()) + "\n");
 }

@@ -149,23 +149,22 @@ std::string LidarRowsTable(const std::vector<LidarRow>& lidars) {
                     "<th>|t err| (cm)</th><th>rot err (deg)</th></tr>\n";
   for (const LidarRow& row : lidars) {
     const std::string name = "<td class=\"text\">" + H(row.lidar) + "</td>";
-    out += "<tr>" + name + "<td class=\"text\">initial guess</td>" +
-           TupleCells(TupleFromTransform(row.T_base_lidar_initial));
-    if (row.T_base_lidar_truth)
-      out += "<td>" + Num(TranslationError(row.T_base_lidar_initial, *row.T_base_lidar_truth) * kCm, 2) +
-             "</td><td>" + Num(RotationErrorDegrees(row.T_base_lidar_initial, *row.T_base_lidar_truth), 3) +
-             "</td>";
-    else
-      out += "<td></td><td></td>";
-    out += "</tr>\n<tr>" + name + "<td class=\"text\"><b>result</b></td>" +
-           TupleCells(TupleFromTransform(row.T_base_lidar));
-    if (row.T_base_lidar_truth)
-      out += "<td><b>" + Num(TranslationError(row.T_base_lidar, *row.T_base_lidar_truth) * kCm, 2) +
-             "</b></td><td><b>" + Num(RotationErrorDegrees(row.T_base_lidar, *row.T_base_lidar_truth), 3) +
-             "</b></td>";
-    else
-      out += "<td></td><td></td>";
-    out += "</tr>\n";
+    // One row per transform: its tuple and, with the truth, its errors (bold for the result).
+    const auto transform_row = [&](const std::string& label, const Eigen::Isometry3d& T_base_lidar, bool bold) {
+      const std::string open = bold ? "<td><b>" : "<td>";
+      const std::string close = bold ? "</b></td>" : "</td>";
+      std::string cells = "<tr>" + name + "<td class=\"text\">" + label + "</td>" +
+                          TupleCells(TupleFromTransform(T_base_lidar));
+      if (row.T_base_lidar_truth) {
+        cells += open + Num(TranslationError(T_base_lidar, *row.T_base_lidar_truth) * kCm, 2) + close + open +
+                 Num(RotationErrorDegrees(T_base_lidar, *row.T_base_lidar_truth), 3) + close;
+      } else {
+        cells += "<td></td><td></td>";
+      }
+      return cells + "</tr>\n";
+    };
+    out += transform_row("initial guess", row.T_base_lidar_initial, false);
+    out += transform_row("<b>result</b>", row.T_base_lidar, true);
     if (row.sigma)
       out += "<tr>" + name + "<td class=\"text\">1-sigma</td>" + TupleCells(*row.sigma) + "<td></td><td></td></tr>\n";
     if (row.T_base_lidar_truth) {
