@@ -461,6 +461,9 @@ TEST(DatasetIo, OptionFilesReadValuesListsAndAResultsOptionsBlock) {
   EXPECT_NE(message("format: scenecal-calibration/1\nlidars: {}\n").find("without an options block"),
             std::string::npos);
   EXPECT_NE(message("thin: [2\n").find("line"), std::string::npos);
+  // A control character would not survive being written back (found by fuzz_option_file).
+  EXPECT_NE(message("thin: \"2\\x03\"\n").find("control character (0x03)"), std::string::npos);
+  EXPECT_NE(message("\"th\\x00in\": 2\n").find("control character (0x00)"), std::string::npos);
   EXPECT_NE(message("thin: 2\n").find("accepted"), std::string::npos);
 }
 

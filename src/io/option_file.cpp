@@ -2,6 +2,8 @@
 
 #include <set>
 
+#include <fmt/format.h>
+
 #include "io/result_file.hpp"
 #include "io/yaml_fields.hpp"
 
@@ -10,6 +12,25 @@ namespace scenecal::io {
 namespace {
 
 constexpr std::size_t kMaxOptionFileBytes = std::size_t{64} << 20;  // as a result file (its history can be long)
+
+// Option names and values are printable text: a control character (which a
+// YAML escape can carry) would not survive being written back.
+void CheckPrintable(const detail::YamlReader& yaml, const YAML::Node& node, const std::string& field) {
+  for (const char c : node.Scalar()) {
+    const auto byte = static_cast<unsigned char>(c);
+    if (byte < 0x20 || byte == 0x7F) {
+      yaml.Fail(node, field, fmt::format("a control character (0x{:02X})", byte), "printable text");
+    }
+  }
+}
+
+// The text with its control characters shown as '?', for messages.
+std::string Shown(std::string text) {
+  for (char& c : text) {
+    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7F) c = '?';
+  }
+  return text;
+}
 
 OptionFile ParseOptions(const detail::YamlReader& yaml) {
   OptionFile file;
@@ -29,6 +50,7 @@ OptionFile ParseOptions(const detail::YamlReader& yaml) {
   for (const auto& entry : options) {
     const std::string key = entry.first.Scalar();
     const YAML::Node& value = entry.second;
+    CheckPrintable(yaml, entry.first, where(Shown(key)));
     if (key.empty() || key.front() == '-') {
       yaml.Fail(entry.first, where(key), "a key '" + key + "'", "an option name without its leading -- (e.g. thin)");
     }
@@ -42,6 +64,7 @@ OptionFile ParseOptions(const detail::YamlReader& yaml) {
     }
     OptionValue option{key, {}, value.Mark().is_null() ? 0 : value.Mark().line + 1};
     if (value.IsScalar()) {
+      CheckPrintable(yaml, value, where(key));
       option.values.push_back(value.Scalar());
     } else if (value.IsSequence() && value.size() > 0) {
       for (std::size_t i = 0; i < value.size(); ++i) {
@@ -49,6 +72,7 @@ OptionFile ParseOptions(const detail::YamlReader& yaml) {
           yaml.Fail(value[i], where(key) + "[" + std::to_string(i) + "]", "found " + detail::Describe(value[i]),
                     "a value");
         }
+        CheckPrintable(yaml, value[i], where(key) + "[" + std::to_string(i) + "]");
         option.values.push_back(value[i].Scalar());
       }
     } else {
