@@ -42,6 +42,7 @@ lidars:
     T_base_lidar: [-2.6, 0.3, 1.1, -2.84, -1.51, -0.36]
 """
 write("fuzz_rig", "stereo.yaml", RIG)
+write("fuzz_rig", "trajectory_source.yaml", RIG + "trajectory_source: visual-odometry\n")
 write("fuzz_rig", "fisheye_matrix.yaml", """format: scenecal-dataset/1
 base_frame: cam0
 cameras:

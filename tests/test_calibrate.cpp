@@ -399,6 +399,12 @@ TEST_F(CalibrateOnSimulation, CliSettingFillsTheOptionsNotGivenAndRefusesARigWit
   EXPECT_EQ(settings["thinning"].as<std::string>().rfind("2 points per", 0), 0u);
   EXPECT_EQ(settings["range_split_m"].as<std::string>(), "6");
   EXPECT_NE(text.find("--setting push-broom-drifting: --range-split 6"), std::string::npos) << text;
+  // The simulated drive's rig.yaml says its odometry is exact: the preset measured for that is named.
+  EXPECT_EQ(settings["trajectory_source"].as<std::string>(), "exact");
+  EXPECT_NE(text.find("rig.yaml says the trajectory is exact; --setting push-broom was measured for that, not "
+                      "--setting push-broom-drifting"),
+            std::string::npos)
+      << text;
   // With alt, the stages spread over 20 of at most 40 alternations (cut short here by the time budget).
   YAML::Node alt_result;
   ASSERT_NO_FATAL_FAILURE(calibrate("setting_alt.yaml",

@@ -114,6 +114,33 @@ TEST(DatasetIo, RigAcceptsFourByFourTransformsAndExtra) {
   EXPECT_NO_THROW(io::ReadRig(temp.path() / "rig_extra.yaml"));
 }
 
+// trajectory_source (FORMAT.md): optional, unknown when absent, written back
+// when known, a value outside the list refused with the choices.
+TEST(DatasetIo, RigTrajectorySourceIsReadWrittenAndChecked) {
+  const TempDir temp;
+  WriteFile(temp.path() / "rig.yaml", kValidRig);
+  Rig rig = io::ReadRig(temp.path() / "rig.yaml");
+  EXPECT_EQ(rig.trajectory_source, TrajectorySource::kUnknown);
+  rig.trajectory_source = TrajectorySource::kVisualOdometry;
+  io::WriteRig(temp.path() / "rig_vo.yaml", rig);
+  EXPECT_NE(ReadFile(temp.path() / "rig_vo.yaml").find("trajectory_source: visual-odometry"), std::string::npos);
+  EXPECT_EQ(io::ReadRig(temp.path() / "rig_vo.yaml").trajectory_source, TrajectorySource::kVisualOdometry);
+  for (const char* name : {"exact", "ins", "lidar-odometry", "visual-odometry", "unknown"}) {
+    TrajectorySource source = TrajectorySource::kUnknown;
+    ASSERT_TRUE(ParseTrajectorySource(name, &source)) << name;
+    EXPECT_STREQ(TrajectorySourceName(source), name);
+  }
+  WriteFile(temp.path() / "rig_bad.yaml", std::string(kValidRig) + "trajectory_source: gps\n");
+  try {
+    io::ReadRig(temp.path() / "rig_bad.yaml");
+    ADD_FAILURE() << "a trajectory_source outside the list was accepted";
+  } catch (const io::InputError& e) {
+    const std::string message = e.what();
+    EXPECT_NE(message.find("trajectory_source"), std::string::npos) << message;
+    EXPECT_NE(message.find("visual-odometry"), std::string::npos) << message;
+  }
+}
+
 TEST(DatasetIo, TrajectoryRoundTripIsExact) {
   const TempDir temp;
   std::vector<TimeUs> times;

@@ -322,6 +322,7 @@ TEST_F(KittiImport, LidarPointsProjectToKittisPixels) {
   const LidarInfo& lidar = dataset.rig.lidars[0];
   EXPECT_EQ(lidar.name, "velodyne");
   EXPECT_EQ(lidar.kind, LidarKind::k3d);
+  EXPECT_EQ(dataset.rig.trajectory_source, TrajectorySource::kIns);  // from oxts/
   ASSERT_TRUE(dataset.ground_truth.has_value());
   const Eigen::Isometry3d& truth = dataset.ground_truth->T_base_lidar.at("velodyne");
   EXPECT_LT((Matrix(truth) - Matrix(lidar.T_base_lidar)).cwiseAbs().maxCoeff(), 1e-12);
@@ -528,6 +529,7 @@ TEST_F(KittiImport, SnippetWithoutOxtsAndTimestamps) {
   for (std::size_t k = 0; k < 5; ++k) EXPECT_EQ(dataset.images.at("image_02")[k].t_us, static_cast<TimeUs>(k) * 100'000);
   ASSERT_EQ(dataset.trajectory.size(), 4u);
   EXPECT_NEAR(dataset.trajectory.poses().back().translation().z(), 0.4, 1e-12);
+  EXPECT_EQ(dataset.rig.trajectory_source, TrajectorySource::kLidarOdometry);
 
   // The command line makes the trajectory by lidar odometry and says so.
   const CliRun run = RunCli("import kitti '" + drive_.drive_dir.string() + "' --output '" +

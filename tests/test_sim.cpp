@@ -321,6 +321,9 @@ TEST(Simulator, OdometryIsExactWithoutNoiseAndDriftsWithIt) {
   EXPECT_LT(max_exact, 1e-6);
   EXPECT_GT(max_drift, 1e-3);
   EXPECT_LT(max_drift, 0.1 * drifting.distance_m);
+  // rig.yaml says so.
+  EXPECT_EQ(io::ReadRig(exact_dir / "rig.yaml").trajectory_source, TrajectorySource::kExact);
+  EXPECT_EQ(io::ReadRig(drift_dir / "rig.yaml").trajectory_source, TrajectorySource::kVisualOdometry);
   fs::remove_all(exact_dir);
   fs::remove_all(drift_dir);
 }

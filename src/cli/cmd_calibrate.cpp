@@ -215,23 +215,49 @@ int PerturbInitialGuesses(const CalibrateArguments& args, const io::Dataset& dat
 
 // What the benchmarks found for push-broom lidars and for drift corrections
 // per lidar, where the options given may not be the best.
+// The push-broom preset that fits a trajectory from `source`; empty when unknown.
+std::string PushBroomPresetFor(TrajectorySource source) {
+  switch (source) {
+    case TrajectorySource::kExact:
+    case TrajectorySource::kIns:
+    case TrajectorySource::kLidarOdometry:
+      return "push-broom";
+    case TrajectorySource::kVisualOdometry:
+      return "push-broom-drifting";
+    case TrajectorySource::kUnknown:
+      break;
+  }
+  return "";
+}
+
 void LogAdviceForRig(const CalibrateArguments& args, const CalibrationOptions& options, const Rig& rig) {
   const bool has_push_broom = rig.HasPushBroomLidar();
-  if (has_push_broom && options.range_split_m <= 0.0) {
+  const std::string source = TrajectorySourceName(rig.trajectory_source);
+  const std::string fitting_preset = PushBroomPresetFor(rig.trajectory_source);
+  if (has_push_broom && !fitting_preset.empty() && !args.applied.setting.empty() &&
+      args.applied.setting != fitting_preset) {
+    spdlog::warn("rig.yaml says the trajectory is {}; --setting {} was measured for that, not --setting {}", source,
+                 fitting_preset, args.applied.setting);
+  } else if (has_push_broom && options.range_split_m <= 0.0) {
     // 10 m push-broom swathes leave the tilt nearly free (docs/findings.md, "A push-broom lidar's tilt is weakly
     // constrained").
     spdlog::info("push-broom lidar: its tilt is weakly determined by 10 m swathes; on the simulated drives (rear "
-                 "and front push-broom lidars) 30 m swathes scored near and far apart did much better: --setting "
-                 "push-broom (good odometry) or push-broom-drifting (visual odometry); README, \"What to expect\"");
+                 "and front push-broom lidars) 30 m swathes scored near and far apart did much better: {}; README, "
+                 "\"What to expect\"",
+                 fitting_preset.empty()
+                     ? std::string("--setting push-broom (good odometry) or push-broom-drifting (visual odometry)")
+                     : fmt::format("--setting {} (rig.yaml: trajectory_source {})", fitting_preset, source));
   } else if (has_push_broom && options.scenes.swathe_length_m >= 20.0 && !options.motion_correction &&
-             args.applied.setting != "push-broom") {  // that preset says the odometry is good
+             args.applied.setting != "push-broom" &&  // that preset says the odometry is good
+             (rig.trajectory_source == TrajectorySource::kUnknown ||
+              rig.trajectory_source == TrajectorySource::kVisualOdometry)) {
     // Long swathes collect the odometry's drift (docs/findings.md, "Odometry drift moves the minimum along the
     // flat direction").
-    spdlog::info("push-broom lidar with {} m swathes: if the trajectory is visual odometry (drifting ~0.01 deg/m), "
-                 "--motion-correction turn,drive-scale (--setting push-broom-drifting) corrects each frame's swathe "
-                 "and the drive's scale (on two of three simulated drives 0.68-0.85 deg -> 0.12-0.14 deg, 1.4-1.6 "
-                 "cm); with exact odometry it costs 0.1-0.4 deg",
-                 options.scenes.swathe_length_m);
+    spdlog::info("push-broom lidar with {} m swathes: if the trajectory is visual odometry (drifting ~0.01 deg/m; "
+                 "rig.yaml: trajectory_source {}), --motion-correction turn,drive-scale (--setting "
+                 "push-broom-drifting) corrects each frame's swathe and the drive's scale (on two of three simulated "
+                 "drives 0.68-0.85 deg -> 0.12-0.14 deg, 1.4-1.6 cm); with exact odometry it costs 0.1-0.4 deg",
+                 options.scenes.swathe_length_m, source);
   }
   if (options.motion_correction && options.motion.drive_scale && options.scheme != CalibrationScheme::kAlt &&
       rig.lidars.size() > 1) {
@@ -399,6 +425,7 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
   CalibrationResult& result = outcome.result;
   result.timings_s["load"] = load_s;
   RecordCommandSettings(args, single_frame_defaults, &result);
+  result.settings["trajectory_source"] = TrajectorySourceName(dataset.rig.trajectory_source);
   YAML::Node extra(YAML::NodeType::Map);
   CheckAnswer(args, options, calibrator, start, &result, &extra);
   result.timings_s["total"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

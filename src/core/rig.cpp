@@ -2,7 +2,27 @@
 
 #include <algorithm>
 
+#include "core/enum_names.hpp"
+
 namespace scenecal {
+
+namespace {
+inline constexpr auto kTrajectorySourceNames = MakeEnumNames<TrajectorySource>({
+    {TrajectorySource::kExact, "exact"},
+    {TrajectorySource::kIns, "ins"},
+    {TrajectorySource::kLidarOdometry, "lidar-odometry"},
+    {TrajectorySource::kVisualOdometry, "visual-odometry"},
+    {TrajectorySource::kUnknown, "unknown"},
+});
+}  // namespace
+
+const char* TrajectorySourceName(TrajectorySource source) { return EnumName(kTrajectorySourceNames, source); }
+
+bool ParseTrajectorySource(const std::string& name, TrajectorySource* source) {
+  return ParseEnumName(kTrajectorySourceNames, name, source);
+}
+
+std::string TrajectorySourceChoices() { return EnumNameList(kTrajectorySourceNames); }
 
 const CameraInfo* Rig::FindCamera(const std::string& name) const {
   const auto it = std::find_if(cameras.begin(), cameras.end(), [&](const CameraInfo& c) { return c.name == name; });

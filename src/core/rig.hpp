@@ -34,10 +34,21 @@ struct LidarInfo {
   Eigen::Isometry3d T_base_lidar = Eigen::Isometry3d::Identity();  // initial guess
 };
 
+// Where the trajectory comes from (rig.yaml's optional trajectory_source):
+// how far it can be trusted over a swathe.
+enum class TrajectorySource { kUnknown, kExact, kIns, kLidarOdometry, kVisualOdometry };
+
+// "unknown", "exact", "ins", "lidar-odometry", "visual-odometry".
+const char* TrajectorySourceName(TrajectorySource source);
+bool ParseTrajectorySource(const std::string& name, TrajectorySource* source);
+// The accepted names, "exact | ins | ...", for messages.
+std::string TrajectorySourceChoices();
+
 struct Rig {
   std::string base_frame;  // names a camera; trajectory poses are of this frame
   std::vector<CameraInfo> cameras;
   std::vector<LidarInfo> lidars;
+  TrajectorySource trajectory_source = TrajectorySource::kUnknown;
 
   const CameraInfo* FindCamera(const std::string& name) const;
   const LidarInfo* FindLidar(const std::string& name) const;

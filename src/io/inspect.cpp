@@ -264,8 +264,11 @@ std::string FormatDatasetSummary(const Dataset& dataset, const DatasetSummary& s
       }
     }
   }
-  line(fmt::format("trajectory: {} rows, {}{}", summary.trajectory_rows,
-                   SpanText(summary.trajectory_span), summary.static_dataset ? " (static dataset)" : ""));
+  line(fmt::format("trajectory: {} rows, {}{}; source {}{}", summary.trajectory_rows,
+                   SpanText(summary.trajectory_span), summary.static_dataset ? " (static dataset)" : "",
+                   TrajectorySourceName(dataset.rig.trajectory_source),
+                   dataset.rig.trajectory_source == TrajectorySource::kUnknown ? " (rig.yaml: no trajectory_source)"
+                                                                               : " (rig.yaml)"));
   line(fmt::format("  distance travelled {:.2f} m, mean speed {:.2f} m/s, standing still {:.1f} s", summary.distance_m,
                    summary.mean_speed_m_s, summary.standing_still_s));
   line(fmt::format("ground truth: {}", summary.ground_truth ? "present (ground_truth.yaml)" : "absent"));

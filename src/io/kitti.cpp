@@ -738,6 +738,7 @@ KittiImportSummary ImportKitti(const fs::path& drive_dir_in, const fs::path& out
       drive.oxts ? OxtsTrajectory(*drive.oxts, drive.frames, range, extrinsics.T_imu_base, &summary.lost)
                  : TrajectoryFromScans(drive_dir, scan_files, extrinsics.T_base_velo, options);
   summary.trajectory_from_scans = !drive.oxts;
+  rig.trajectory_source = drive.oxts ? TrajectorySource::kIns : TrajectorySource::kLidarOdometry;
 
   StagedOutput staged(target);
   const fs::path& root = staged.Staging();

@@ -181,6 +181,9 @@ std::string RigToYaml(const Rig& rig, const YAML::Node* extra) {
   out << YAML::Key << "lidars" << YAML::Value << YAML::BeginMap;
   for (const LidarInfo& lidar : rig.lidars) EmitLidar(out, lidar);
   out << YAML::EndMap;
+  if (rig.trajectory_source != TrajectorySource::kUnknown) {
+    out << YAML::Key << "trajectory_source" << YAML::Value << TrajectorySourceName(rig.trajectory_source);
+  }
   if (extra != nullptr && extra->IsDefined() && !extra->IsNull()) {
     if (!extra->IsMap()) throw std::invalid_argument("WriteRig: extra must be a YAML mapping");
     out << YAML::Key << "extra" << YAML::Value << *extra;
@@ -205,7 +208,7 @@ Rig ParseRig(const std::string& text, const std::string& name) {
   }
   const YamlReader yaml(text, name);
   const YAML::Node& root = yaml.root();
-  yaml.CheckKeys(root, "", {"format", "base_frame", "cameras", "lidars", "extra"});
+  yaml.CheckKeys(root, "", {"format", "base_frame", "cameras", "lidars", "trajectory_source", "extra"});
   yaml.CheckFormat(root, kRigFormat);
   Rig rig;
   std::set<std::string> names;
@@ -219,6 +222,12 @@ Rig ParseRig(const std::string& text, const std::string& name) {
                });
   rig.base_frame = yaml.String(yaml.Required(root, "", "base_frame"), "base_frame");
   CheckBaseFrame(yaml, rig);
+  if (const YAML::Node source = root["trajectory_source"]; source.IsDefined()) {
+    const std::string source_name = yaml.String(source, "trajectory_source");
+    if (!ParseTrajectorySource(source_name, &rig.trajectory_source)) {
+      yaml.Fail(source, "trajectory_source", "'" + source_name + "'", "one of " + TrajectorySourceChoices());
+    }
+  }
   if (const YAML::Node extra = root["extra"]; extra.IsDefined() && !extra.IsMap() && !extra.IsNull()) {
     yaml.Fail(extra, "extra", "found " + detail::Describe(extra), "a mapping (free for users)");
   }

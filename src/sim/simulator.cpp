@@ -330,6 +330,9 @@ void ComputeTrajectories(const DriveScene& scene, const SimulationOptions& optio
 // transforms; the true values of what was perturbed go to *ground_truth.
 Rig WrittenRig(const Rig& true_rig, const SimulationOptions& options, GroundTruth* ground_truth) {
   Rig written = true_rig;
+  // The simulated drift is visual odometry's (~0.01 deg/m); without it the poses are exact.
+  written.trajectory_source =
+      options.odometry_noise > 0.0 ? TrajectorySource::kVisualOdometry : TrajectorySource::kExact;
   KeyedRandom lidar_random(options.seed, 1000), camera_random(options.seed, 1100);
   for (LidarInfo& lidar : written.lidars) {
     ground_truth->T_base_lidar[lidar.name] = lidar.T_base_lidar;
