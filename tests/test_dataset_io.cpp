@@ -491,6 +491,8 @@ TEST(DatasetIo, OptionFilesReadValuesListsAndAResultsOptionsBlock) {
   // A control character would not survive being written back (found by fuzz_option_file).
   EXPECT_NE(message("thin: \"2\\x03\"\n").find("control character (0x03)"), std::string::npos);
   EXPECT_NE(message("\"th\\x00in\": 2\n").find("control character (0x00)"), std::string::npos);
+  EXPECT_NE(message(std::string("thin: 2\0N\n", 10)).find("control character"), std::string::npos);
+  EXPECT_EQ(message("thin: \"\\uD800\"\n").find("accepted"), std::string::npos);  // a lone surrogate
   EXPECT_NE(message("thin: 2\n").find("accepted"), std::string::npos);
 }
 

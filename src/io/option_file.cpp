@@ -13,9 +13,14 @@ namespace {
 
 constexpr std::size_t kMaxOptionFileBytes = std::size_t{64} << 20;  // as a result file (its history can be long)
 
-// Option names and values are printable text: a control character (which a
-// YAML escape can carry) would not survive being written back.
+// Option names and values are printable UTF-8 text: a control character or
+// a broken code point (which a YAML escape can carry) would not survive being
+// written back.
 void CheckPrintable(const detail::YamlReader& yaml, const YAML::Node& node, const std::string& field) {
+  // An escape ("\\uD800") can make what is not UTF-8.
+  if (detail::FirstInvalidUtf8(node.Scalar()) != std::string_view::npos) {
+    yaml.Fail(node, field, "text that is not UTF-8 (from an escape)", "printable text");
+  }
   for (const char c : node.Scalar()) {
     const auto byte = static_cast<unsigned char>(c);
     if (byte < 0x20 || byte == 0x7F) {

@@ -50,10 +50,6 @@ std::string FormatNumber(double value) {
 
 YamlReader::YamlReader(const fs::path& path) : YamlReader(ReadTextFile(path, 64u << 20), path.string()) {}
 
-namespace {
-
-// Offset of the first byte that does not belong to well-formed UTF-8 (no
-// overlong forms, surrogates or code points past U+10FFFF), or npos.
 std::size_t FirstInvalidUtf8(std::string_view text) {
   std::size_t i = 0;
   while (i < text.size()) {
@@ -87,8 +83,6 @@ std::size_t FirstInvalidUtf8(std::string_view text) {
   return std::string_view::npos;
 }
 
-}  // namespace
-
 YamlReader::YamlReader(const std::string& text, std::string name) : file_(std::move(name)) {
   // YAML text is Unicode; yaml-cpp passes other bytes through unchecked, and
   // its emitter would then write them differently from how they were read.
@@ -97,6 +91,19 @@ YamlReader::YamlReader(const std::string& text, std::string name) : file_(std::m
     detail::Fail(file_, fmt::format("line {}", line),
                  fmt::format("byte {} (0x{:02X}) is not UTF-8", bad, static_cast<unsigned char>(text[bad])),
                  "a UTF-8 text file");
+  }
+  // Nor are control characters other than tab and line breaks YAML text (yaml-cpp reads a NUL as part of
+  // other characters, so a value would not read back as it was written).
+  const auto is_control = [](char c) {
+    const auto byte = static_cast<unsigned char>(c);
+    return (byte < 0x20 && c != '\t' && c != '\n' && c != '\r') || byte == 0x7F;
+  };
+  if (const auto control = std::find_if(text.begin(), text.end(), is_control); control != text.end()) {
+    const auto line = std::count(text.begin(), control, '\n') + 1;
+    detail::Fail(file_, fmt::format("line {}", line),
+                 fmt::format("byte {} (0x{:02X}) is a control character", control - text.begin(),
+                             static_cast<unsigned char>(*control)),
+                 "YAML text (no control characters but tab and line breaks)");
   }
   try {
     root_ = YAML::Load(text);

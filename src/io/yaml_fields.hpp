@@ -33,6 +33,10 @@ bool ParseWholeToken(std::string_view token, T* value) {
 // wrong path to a huge file cannot exhaust memory). Missing file -> InputError.
 std::string ReadTextFile(const std::filesystem::path& path, std::size_t max_bytes);
 
+// Offset of the first byte that does not belong to well-formed UTF-8 (no
+// overlong forms, surrogates or code points past U+10FFFF), or npos.
+std::size_t FirstInvalidUtf8(std::string_view text);
+
 // Shortest decimal form that reads back to the same double ("{}" of fmt);
 // non-finite values in YAML spelling (.nan, .inf, -.inf).
 std::string FormatNumber(double value);
