@@ -32,6 +32,7 @@
 #include "core/gradient_solver.hpp"
 #include "core/metric.hpp"
 #include "core/nelder_mead.hpp"
+#include "core/motion_estimation.hpp"
 #include "core/normalisation.hpp"
 #include "core/pair_cost.hpp"
 #include "core/rig.hpp"

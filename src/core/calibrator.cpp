@@ -456,6 +456,18 @@ std::vector<LidarUncertainty> Calibrator::EstimateUncertainty(const CalibrationR
   return estimates;
 }
 
+DriftTestResult Calibrator::TestDriftAt(const CalibrationResult& result, const DriftTestOptions& test_options) {
+  std::vector<PairCost*> pairs;
+  std::vector<Eigen::Isometry3d> T_camera_lidar;
+  for (const LidarCalibration& lidar : result.lidars) {
+    for (PairCost* pair : PairsAt(lidar.lidar, lidar.T_base_lidar, options_.cost.histogram.binning)) {
+      pairs.push_back(pair);
+      T_camera_lidar.push_back(pair->Camera().T_camera_base() * lidar.T_base_lidar);
+    }
+  }
+  return TestDrift(pairs, T_camera_lidar, test_options);
+}
+
 std::vector<LidarBasinCheck> Calibrator::CheckBasins(const CalibrationResult& result,
                                                      const BasinCheckOptions& check_options) {
   std::vector<LidarBasinCheck> checks;

@@ -73,6 +73,10 @@ class Calibrator {
   // the B-spline cost of the same swathes.
   std::vector<LidarUncertainty> EstimateUncertainty(const CalibrationResult& result,
                                                     const UncertaintyOptions& uncertainty_options);
+  // The held-out drift test (core/motion_estimation.hpp) with every lidar at
+  // its answer in `result`, all lidars' swathes of a camera frame together
+  // (the drift is the trajectory's).
+  DriftTestResult TestDriftAt(const CalibrationResult& result, const DriftTestOptions& test_options);
   // The basin check at the result (core/basin_check.hpp).
   std::vector<LidarBasinCheck> CheckBasins(const CalibrationResult& result, const BasinCheckOptions& check_options);
 

@@ -17,6 +17,7 @@
 #pragma once
 
 #include <functional>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -28,6 +29,8 @@
 
 namespace scenecal {
 
+class CorrectionFrame;  // core/motion_estimation.hpp
+
 struct PairCostOptions {
   HistogramOptions histogram;
   MetricKind metric = MetricKind::kNid;
@@ -36,38 +39,6 @@ struct PairCostOptions {
   int min_points_per_scene = 300;
 
   bool IsValid(std::string* why = nullptr) const;
-};
-
-// Odometry drift correction (SwatheMotionCorrection), estimated by
-// EstimateMotionCorrections (below): for each camera frame, the terms that
-// minimise that frame's own cost at a fixed T_camera_lidar, within the bounds
-// (Nelder-Mead, from the frame's previous correction); the drive's scale from
-// all frames together.
-struct MotionCorrectionOptions {
-  // Which terms are estimated (the others keep the frame's current values: 0 at first); at least one.
-  bool scale = false;
-  bool turn = true;   // both rates across the travel (heading and pitch, whichever way the base is turned)
-  bool roll = false;  // the rate about the travel
-  // One scale error for the whole drive (the odometry's scale bias), shared by
-  // every frame and estimated from all frames' costs together before the
-  // per-frame terms; with `scale` as well, each frame then refines it.
-  bool drive_scale = false;
-  double max_scale = 0.02;                         // |scale| bound (fraction)
-  double max_rate_rad_per_m = RadiansFromDegrees(0.05);  // bound on each rate
-  double initial_step_scale = 0.004;               // simplex steps
-  double initial_step_rate_rad_per_m = 1.7453e-4;  // 0.01 deg/m
-  int max_iterations = 60;
-
-  bool IsValid(std::string* why = nullptr) const;
-};
-
-struct MotionCorrectionSummary {
-  int frames = 0;            // camera frames corrected (with a used scene)
-  int evaluations = 0;       // frame-cost evaluations, all frames
-  double cost_before = 0.0;  // mean over the frames of their cost before and after
-  double cost_after = 0.0;
-  int drive_evaluations = 0;  // of the drive's scale (options.drive_scale), all frames each
-  std::vector<SwatheMotionCorrection> corrections;  // per scene: the pairs' Scenes() one after the other
 };
 
 // Why a scene is left out of the cost (kUsed when it is not).
@@ -140,22 +111,10 @@ class PairCost {
   std::vector<std::size_t> projected_at_refresh_;
   std::vector<std::size_t> used_;  // indices of used scenes
 
-  friend MotionCorrectionSummary EstimateMotionCorrections(const std::vector<PairCost*>& pairs,
-                                                           const std::vector<Eigen::Isometry3d>& T_camera_lidar,
-                                                           const MotionCorrectionOptions& options);
+  // The drift corrections (core/motion_estimation.hpp) set the swathes of the used scenes.
+  friend std::map<TimeUs, CorrectionFrame> CorrectionFramesByTime(const std::vector<PairCost*>& pairs,
+                                                                  const std::vector<Eigen::Isometry3d>& T_camera_lidar);
 };
-
-// Estimates each frame's SwatheMotionCorrection with every pair at its
-// T_camera_lidar (one per pair) and applies it to their swathes: the used
-// scenes with the same image time, over all pairs (the cameras of a rig that
-// fire together, a frame's range bands, several lidars), share one correction
-// and minimise their mean cost. With options.drive_scale the scale is first
-// chosen for all frames together (the mean of the frames' costs); then the
-// frames' own terms, independently (in parallel). Uses the scene states of
-// each pair's last refresh. Between optimiser runs only.
-MotionCorrectionSummary EstimateMotionCorrections(const std::vector<PairCost*>& pairs,
-                                                  const std::vector<Eigen::Isometry3d>& T_camera_lidar,
-                                                  const MotionCorrectionOptions& options);
 
 // The `joint` cost of one lidar: the mean over cameras of each pair's cost at
 // T_camera_lidar = T_base_camera^-1 * T_base_lidar (the known camera
