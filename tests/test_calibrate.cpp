@@ -25,6 +25,7 @@
 #include "core/calibrate_alternating.hpp"
 #include "core/calibrator.hpp"
 #include "core/geometry.hpp"
+#include "core/motion_estimation.hpp"
 #include "io/dataset.hpp"
 #include "sim/simulator.hpp"
 #include "support/small_dataset.hpp"
@@ -453,7 +454,81 @@ TEST_F(CalibrateOnSimulation, CliSettingFillsTheOptionsNotGivenAndRefusesARigWit
   EXPECT_EQ(RunCli("calibrate " + DatasetPath().string() + " --output " + refused.string() + " --setting pushbroom",
                    &refused_text),
             2);
-  EXPECT_NE(refused_text.find("{push-broom-drifting,push-broom}"), std::string::npos) << refused_text;
+  for (const char* name : {"push-broom", "push-broom-drifting", "paper", "auto"}) {
+    EXPECT_NE(refused_text.find(name), std::string::npos) << name << " not offered: " << refused_text;
+  }
+}
+
+// With no --setting, calibrate chooses from the rig and the data and says why
+// (--setting auto): rig.yaml's trajectory_source when given; when not, the
+// held-out drift test, whose figures the result keeps; none for 3D lidars.
+// The result's options name the preset chosen, so --config RESULT repeats it.
+TEST_F(CalibrateOnSimulation, CliAutoSettingChoosesFromTheRigAndTheData) {
+  const std::string quick = " --scenes 6 --lbfgs-iterations 2 --stages 1 --time-budget 0.3 --no-uncertainty "
+                            "--no-basin-check";
+  std::string text;
+  const auto calibrate = [&](const fs::path& dataset, const std::string& name, const std::string& options) {
+    const fs::path output = root_ / name;
+    EXPECT_EQ(RunCli("calibrate " + dataset.string() + " --output " + output.string() + options, &text), 0) << text;
+    return fs::exists(output) ? YAML::LoadFile(output.string()) : YAML::Node();
+  };
+  // The simulated drive says its odometry is exact: push-broom, no test.
+  const YAML::Node exact = calibrate(DatasetPath(), "auto_exact.yaml", quick);
+  ASSERT_TRUE(exact["settings"]) << text;
+  EXPECT_EQ(exact["settings"]["setting"].as<std::string>().rfind("push-broom: --swathe-length 30", 0), 0u);
+  EXPECT_NE(exact["settings"]["setting_chosen_by"].as<std::string>().find("trajectory_source exact"),
+            std::string::npos);
+  EXPECT_FALSE(exact["settings"]["drift_test"]);
+  EXPECT_EQ(exact["options"]["setting"].as<std::string>(), "push-broom");
+  EXPECT_NE(text.find("--setting auto: push-broom (a 2D (push-broom) lidar on a drive"), std::string::npos) << text;
+
+  // The same drive with trajectory_source left out: the data decide, and the result says on what evidence.
+  const fs::path unknown = root_ / "auto_unknown";
+  fs::copy(DatasetPath(), unknown, fs::copy_options::recursive);
+  {
+    std::ifstream in(unknown / "rig.yaml");
+    std::string line, kept;
+    while (std::getline(in, line)) {
+      if (line.rfind("trajectory_source:", 0) != 0) kept += line + "\n";
+    }
+    in.close();
+    std::ofstream(unknown / "rig.yaml") << kept;
+  }
+  const YAML::Node tested = calibrate(unknown, "auto_unknown.yaml", quick);
+  ASSERT_TRUE(tested["settings"]) << text;
+  const std::string evidence = tested["settings"]["drift_test"].as<std::string>();
+  EXPECT_NE(evidence.find("held-out cost change"), std::string::npos) << evidence;
+  const bool drift_found = evidence.find(": drift found") != std::string::npos;
+  EXPECT_EQ(drift_found || evidence.find(": no drift found") != std::string::npos, true) << evidence;
+  // The preset in force is the one the evidence points to, and the first solve's time is kept.
+  EXPECT_EQ(tested["options"]["setting"].as<std::string>(), drift_found ? "push-broom-drifting" : "push-broom");
+  EXPECT_TRUE(tested["timings_s"]["push_broom_solve"]);
+  EXPECT_EQ(tested["settings"]["trajectory_source"].as<std::string>(), "unknown");
+
+  // A 3D lidar on the same drive: no preset, and the reason.
+  const fs::path spinning = root_ / "auto_3d";
+  fs::copy(DatasetPath(), spinning, fs::copy_options::recursive);
+  {
+    std::ifstream in(spinning / "rig.yaml");
+    std::stringstream rig;
+    rig << in.rdbuf();
+    std::string text_3d = rig.str();
+    for (std::size_t at = text_3d.find("kind: 2d"); at != std::string::npos; at = text_3d.find("kind: 2d", at))
+      text_3d.replace(at, 8, "kind: 3d");
+    in.close();
+    std::ofstream(spinning / "rig.yaml") << text_3d;
+  }
+  const YAML::Node none = calibrate(spinning, "auto_3d.yaml", quick + " --scheme joint");
+  ASSERT_TRUE(none["settings"]) << text;
+  EXPECT_FALSE(none["settings"]["setting"]);
+  EXPECT_NE(none["settings"]["setting_chosen_by"].as<std::string>().find("3D lidar"), std::string::npos);
+
+  // The paper's pipeline, named: its options, and no choice made.
+  const YAML::Node paper = calibrate(DatasetPath(), "paper.yaml", quick + " --scheme joint --setting paper");
+  ASSERT_TRUE(paper["settings"]) << text;
+  EXPECT_EQ(paper["settings"]["setting"].as<std::string>().rfind("paper: --swathe-length 10", 0), 0u);
+  EXPECT_FALSE(paper["settings"]["setting_chosen_by"]);
+  EXPECT_EQ(paper["settings"]["swathe_length_m"].as<std::string>(), "10");
 }
 
 // --config: a file fills the options the command line did not give; the
@@ -691,9 +766,10 @@ struct DriftedPairs {
   std::vector<Eigen::Isometry3d> T_camera_lidar;
 };
 DriftedPairs BuildDriftedPairs(const io::Dataset& dataset,
-                               const std::function<SwatheMotionCorrection(std::size_t frame)>& drift) {
+                               const std::function<SwatheMotionCorrection(std::size_t frame)>& drift,
+                               int scenes_per_camera = 6) {
   CalibrationOptions options;
-  options.scenes.scenes_per_camera = 6;
+  options.scenes.scenes_per_camera = scenes_per_camera;
   options.scenes.swathe_length_m = 20.0;
   CalibrationInput input = test::LoadCalibrationInput(dataset, options.scenes);
   const Eigen::Isometry3d truth = dataset.ground_truth->T_base_lidar.at("lms_rear");
@@ -762,6 +838,49 @@ TEST_F(CalibrateOnSimulation, MotionCorrectionFindsADriftPutIntoTheSwathes) {
   std::cout << "[ measured ] drift correction: residual " << relative * 100.0 << " % of the drift put in over "
             << compared << " scenes; frame cost " << summary.cost_before << " -> " << summary.cost_after << "\n";
   EXPECT_LT(relative, 0.35);
+}
+
+// The held-out drift test tells a drift that follows the drive (here the same
+// turn rates in every frame, as an odometry's bias) from none, and from one
+// that its neighbours do not predict (alternating signs: a frame's own misfit).
+TEST_F(CalibrateOnSimulation, DriftTestFindsADriftTheNeighboursPredictAndNoOther) {
+  const io::Dataset dataset = io::OpenDataset(DatasetPath());
+  const auto run = [&](const char* name, const std::function<SwatheMotionCorrection(std::size_t)>& drift) {
+    const DriftedPairs drifted = BuildDriftedPairs(dataset, drift, 12);
+    const DriftTestResult result = TestDrift(drifted.pairs, drifted.T_camera_lidar, DriftTestOptions{});
+    for (const PairCost* pair : drifted.pairs) {
+      for (const SceneSwathe& scene : pair->Scenes()) EXPECT_TRUE(scene.MotionCorrection().IsZero()) << name;
+    }
+    std::cout << "[ measured ] drift test, " << name << ": " << result.Describe() << "\n";
+    return result;
+  };
+  const DriftTestResult steady = run("the same drift in every frame", [](std::size_t) {
+    return SwatheMotionCorrection{0.0, RadiansFromDegrees(0.03), -RadiansFromDegrees(0.02), 0.0};
+  });
+  ASSERT_TRUE(steady.enough_frames);
+  EXPECT_GE(steady.frames, 8);
+  EXPECT_LT(steady.mean_cost_change, 0.0);
+  EXPECT_TRUE(steady.drift_found);
+  EXPECT_GE(steady.frames_lower, steady.frames * 3 / 4);
+
+  const DriftTestResult none = run("no drift", [](std::size_t) { return SwatheMotionCorrection{}; });
+  EXPECT_FALSE(none.drift_found);
+
+  const DriftTestResult alternating = run("alternating drift", [](std::size_t frame) {
+    const double sign = frame % 2 == 0 ? 1.0 : -1.0;
+    return SwatheMotionCorrection{0.0, sign * RadiansFromDegrees(0.03), -sign * RadiansFromDegrees(0.02), 0.0};
+  });
+  EXPECT_FALSE(alternating.drift_found);
+  EXPECT_GT(alternating.mean_cost_change, 0.0);  // the neighbours' corrections point the wrong way
+
+  const DriftTestResult too_few = [&] {
+    DriftTestOptions options;
+    options.min_frames = 100;
+    const DriftedPairs drifted = BuildDriftedPairs(dataset, [](std::size_t) { return SwatheMotionCorrection{}; });
+    return TestDrift(drifted.pairs, drifted.T_camera_lidar, options);
+  }();
+  EXPECT_FALSE(too_few.enough_frames);
+  EXPECT_FALSE(too_few.drift_found);
 }
 
 // The drive's scale: every frame's swathe stretched by the same 1.5 % (an

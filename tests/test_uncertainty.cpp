@@ -136,7 +136,7 @@ TEST_F(UncertaintyOnSimulation, CliWritesTheEstimate) {
   const fs::path output = root_ / "result.yaml";
   const std::string command = std::string(SCENECAL_CLI_PATH) + " calibrate " + (root_ / "robotcar").string() +
                               " --output " + output.string() +
-                              " --scheme joint --scenes 12 --stages 1 --max-iterations 30 > " +
+                              " --setting paper --scheme joint --scenes 12 --stages 1 --max-iterations 30 > " +
                               (root_ / "out.txt").string() + " 2> " + (root_ / "log.txt").string();
   ASSERT_EQ(std::system(command.c_str()), 0);
   const YAML::Node result = YAML::LoadFile(output.string());
@@ -153,7 +153,7 @@ TEST_F(UncertaintyOnSimulation, CliWritesTheEstimate) {
   // And --no-uncertainty leaves it out (here with other z-buffer settings, recorded as given).
   const std::string skip = std::string(SCENECAL_CLI_PATH) + " calibrate " + (root_ / "robotcar").string() +
                            " --output " + output.string() +
-                           " --scheme joint --scenes 12 --stages 1 --max-iterations 30 --no-uncertainty"
+                           " --setting paper --scheme joint --scenes 12 --stages 1 --max-iterations 30 --no-uncertainty"
                            " --occlusion-cell 12 --occlusion-margin 0.1 --occlusion-margin-abs 0.25"
                            " --refresh-border 16 --min-range 2 --max-range 40 > /dev/null 2>&1";
   ASSERT_EQ(std::system(skip.c_str()), 0);

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <random>
@@ -151,6 +152,14 @@ int MakeCalibrationOptions(const CalibrateArguments& args, CalibrationOptions* o
   options->seed = args.seed;
   options->time_budget_s = args.time_budget_s;
   args.alternating.ApplyTo(&options->alternating);
+  const std::vector<std::string>& preset_set = args.applied.set_options;
+  if (options->alternating.stage_alternations > options->alternating.max_alternations &&
+      std::find(preset_set.begin(), preset_set.end(), "--stage-alternations") != preset_set.end()) {
+    // The preset's span is for its own --alternations; with fewer given, its stages spread over those.
+    spdlog::info("--setting {}: --stage-alternations {} capped at --alternations {}", args.applied.setting,
+                 options->alternating.stage_alternations, options->alternating.max_alternations);
+    options->alternating.stage_alternations = options->alternating.max_alternations;
+  }
   std::string why;
   if (!options->IsValid(&why)) {
     spdlog::error("invalid options: {}", why);
@@ -322,6 +331,7 @@ void RecordCommandSettings(const CalibrateArguments& args, const std::string& si
                                                          ? ""
                                                          : fmt::format(": {}", fmt::join(applied.setting_words, " ")));
   }
+  if (applied.automatic) result->settings["setting_chosen_by"] = "--setting auto: " + applied.automatic_reason;
   if (!args.config.files.empty()) result->settings["config"] = fmt::format("{}", fmt::join(args.config.files, ", "));
   if (!single_frame_defaults.empty()) result->settings["single_frame_defaults"] = single_frame_defaults;
   if (PerturbsInitialGuesses(args)) {
@@ -387,7 +397,81 @@ void PrintErrorsAgainstTruth(const io::Dataset& dataset, const Rig& rig, const C
   }
 }
 
-int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
+// One solve with the options as the command line, its files and its preset
+// now give them: the input, the calibrator built over it (which keeps a
+// reference to it: not movable) and its outcome.
+struct DatasetSolve {
+  CalibrationOptions options;
+  std::string single_frame_defaults;
+  CalibrationInput input;
+  std::unique_ptr<Calibrator> calibrator;
+  std::optional<CalibrationOutcome> outcome;  // none on an MPI rank that served lower levels
+  double load_s = 0.0;
+};
+
+// Options, scenes, calibrator, solve: kExitSuccess with *solve filled, else
+// the exit code (logged).
+int SolveDataset(const CalibrateArguments& args, const io::Dataset& dataset, ProcessGroup& group,
+                 DatasetSolve* solve) {
+  const auto start = std::chrono::steady_clock::now();
+  if (const int exit_code = MakeCalibrationOptions(args, &solve->options); exit_code != kExitSuccess) return exit_code;
+  ApplyDatasetDefaults(dataset, args.cost, &solve->options, &solve->single_frame_defaults);
+  if (const int exit_code = CheckSettingFitsDataset(args, dataset, solve->options); exit_code != kExitSuccess) {
+    return exit_code;
+  }
+  solve->input.rig = dataset.rig;
+  if (const int exit_code = PerturbInitialGuesses(args, dataset, &solve->input.rig); exit_code != kExitSuccess) {
+    return exit_code;
+  }
+  const LoadedScenes loaded = SelectAndLoadScenes(dataset, solve->options.scenes, &solve->input, args.cost.ImageChannel());
+  solve->load_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  spdlog::info("loaded {} lidar points in {:.2f} s", loaded.lidar_points, solve->load_s);
+  LogAdviceForRig(args, solve->options, solve->input.rig);
+  LogCalibrationPlan(args, solve->options);
+  solve->calibrator = std::make_unique<Calibrator>(solve->input, solve->options,
+                                                   [](const std::string& message) { spdlog::info("{}", message); });
+  solve->outcome = SolveOnGroup(*solve->calibrator, group);
+  return solve->outcome ? OutcomeExitCode(*solve->outcome) : kExitSuccess;
+}
+
+// --setting auto: the preset for the data (ChooseSetting), applied and logged.
+AutomaticChoice ChooseAutomatically(CalibrateArguments* args, const io::Dataset& dataset, const ProcessGroup& group) {
+  if (!args->applied.automatic) return {};
+  const AutomaticChoice choice = ChooseSetting(dataset.rig, dataset.trajectory.size(), !group.distributed());
+  args->applied.automatic_reason = choice.reason;
+  if (!choice.preset.empty()) ApplyPreset(args->command, choice.preset, &args->applied);
+  spdlog::info("--setting auto: {} ({})", choice.preset.empty() ? std::string("no preset") : choice.preset,
+               choice.reason);
+  return choice;
+}
+
+// --setting auto on a push-broom drive whose trajectory's source is unknown:
+// the held-out drift test at the push-broom answer. When it finds drift,
+// push-broom-drifting solves again from the initial guess, as that preset
+// alone would. *evidence: the test's figures, for the result.
+int DecideOnDrift(CalibrateArguments* args, const io::Dataset& dataset, ProcessGroup& group,
+                  std::unique_ptr<DatasetSolve>* solve, std::string* evidence) {
+  const auto start = std::chrono::steady_clock::now();
+  DriftTestOptions test;
+  test.motion = (*solve)->options.motion;
+  test.motion.turn = true;  // the per-frame rates: how visual odometry drifts
+  test.motion.scale = test.motion.roll = test.motion.drive_scale = false;
+  const DriftTestResult drift = (*solve)->calibrator->TestDriftAt((*solve)->outcome->result, test);
+  *evidence = fmt::format("{} ({:.1f} s)", drift.Describe(),
+                          std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  spdlog::info("held-out drift test at the push-broom answer (each frame's turn rates predicted from its "
+               "neighbours'): {}",
+               *evidence);
+  if (!drift.drift_found) return kExitSuccess;
+  ApplyPreset(args->command, "push-broom-drifting", &args->applied);
+  args->applied.automatic_reason += "; the trajectory drifts within the swathes: push-broom-drifting";
+  spdlog::info("--setting auto: push-broom-drifting, solving again from the initial guess");
+  solve->reset();  // the first solve's scenes go before the second's are loaded
+  *solve = std::make_unique<DatasetSolve>();
+  return SolveDataset(*args, dataset, group, solve->get());
+}
+
+int RunCalibration(CalibrateArguments& args, ProcessGroup& group) {
   const auto start = std::chrono::steady_clock::now();
   // Before any work: a result that could not be written would waste the run.
   // Only rank 0 writes, and other hosts need not have its output folder.
@@ -395,39 +479,36 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
     io::CheckOutputFile(args.output, "--output");
     if (!args.report_dir.empty()) io::CheckOutputFolderWritable(args.report_dir, "--report");
   }
-  CalibrationOptions options;
-  if (const int exit_code = MakeCalibrationOptions(args, &options); exit_code != kExitSuccess) return exit_code;
   const auto thread_limit = LimitThreads(args.threads);
-  std::string single_frame_defaults;
-  const io::Dataset dataset = OpenDatasetWithDefaults(args.dataset, args.cost, &options, &single_frame_defaults);
-  if (const int exit_code = CheckSettingFitsDataset(args, dataset, options); exit_code != kExitSuccess) {
-    return exit_code;
-  }
+  spdlog::info("opening {}", args.dataset);
+  const io::Dataset dataset = io::OpenDataset(args.dataset);
+  const AutomaticChoice choice = ChooseAutomatically(&args, dataset, group);
 
-  CalibrationInput input;
-  input.rig = dataset.rig;
-  if (const int exit_code = PerturbInitialGuesses(args, dataset, &input.rig); exit_code != kExitSuccess) {
-    return exit_code;
+  auto solve = std::make_unique<DatasetSolve>();
+  if (const int exit_code = SolveDataset(args, dataset, group, solve.get());
+      exit_code != kExitSuccess || !solve->outcome) {
+    return exit_code;  // an error, or a serving MPI rank: rank 0 writes
   }
-  const LoadedScenes loaded = SelectAndLoadScenes(dataset, options.scenes, &input, args.cost.ImageChannel());
-  const double load_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  spdlog::info("loaded {} lidar points in {:.2f} s", loaded.lidar_points, load_s);
-  LogAdviceForRig(args, options, input.rig);
-  LogCalibrationPlan(args, options);
-
-  Calibrator calibrator(input, options, [](const std::string& message) { spdlog::info("{}", message); });
-  std::optional<CalibrationOutcome> solved = SolveOnGroup(calibrator, group);
-  if (!solved) return kExitSuccess;  // a serving MPI rank; rank 0 writes
-  CalibrationOutcome& outcome = *solved;
-  if (const int exit_code = OutcomeExitCode(outcome); exit_code != kExitSuccess) return exit_code;
+  std::string drift_evidence;
+  if (choice.test_drift) {
+    const double first_solve_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    if (const int exit_code = DecideOnDrift(&args, dataset, group, &solve, &drift_evidence);
+        exit_code != kExitSuccess) {
+      return exit_code;
+    }
+    solve->outcome->result.timings_s["push_broom_solve"] = first_solve_s;
+  }
+  Calibrator& calibrator = *solve->calibrator;
+  CalibrationOutcome& outcome = *solve->outcome;
   AddOptionAdvice(&outcome);  // the core's warnings name no option: this command's that act on them
   LogPairReports(outcome.pairs);
   CalibrationResult& result = outcome.result;
-  result.timings_s["load"] = load_s;
-  RecordCommandSettings(args, single_frame_defaults, &result);
+  result.timings_s["load"] = solve->load_s;
+  RecordCommandSettings(args, solve->single_frame_defaults, &result);
+  if (!drift_evidence.empty()) result.settings["drift_test"] = drift_evidence;
   result.settings["trajectory_source"] = TrajectorySourceName(dataset.rig.trajectory_source);
   YAML::Node extra(YAML::NodeType::Map);
-  CheckAnswer(args, options, calibrator, start, &result, &extra);
+  CheckAnswer(args, solve->options, calibrator, start, &result, &extra);
   result.timings_s["total"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   for (const std::string& warning : result.warnings) spdlog::warn("{}", warning);
   // Each frame's drift correction: what the odometry did over its swathe, as the images saw it.
@@ -445,14 +526,14 @@ int RunCalibration(const CalibrateArguments& args, ProcessGroup& group) {
   }
   io::WriteCalibrationResult(args.output, result, extra);
   spdlog::info("wrote {} ({})", args.output, result.termination);
-  PrintErrorsAgainstTruth(dataset, input.rig, result);
+  PrintErrorsAgainstTruth(dataset, solve->input.rig, result);
   return kExitSuccess;
 }
 
 // MPI starts before any data is read (every rank loads the same inputs). A
 // rank that fails ends every rank at once: the others would otherwise wait in
 // a collective for it forever.
-int Run(const CalibrateArguments& args) {
+int Run(CalibrateArguments& args) {
   ProcessGroup group(args.scheme == "alt" ? args.alternating.backend : "threads");
   if (!group.distributed()) return RunCalibration(args, group);
   if (!group.IsRoot()) spdlog::set_level(spdlog::level::warn);
@@ -653,7 +734,7 @@ CommandRunner AddCalibrateCommand(CLI::App& app) {
       ->check(CLI::IsMember({"once", "joint", "alt"}))
       ->capture_default_str();
   args->command = command;
-  AddConfigOptions(command, &args->config);
+  AddConfigOptions(command, &args->config, /*automatic=*/true);
   AddCostOptions(command, &args->cost);
   AddMotionCorrectionOptions(command, &args->motion);
   AddSolverOptions(command, args.get());

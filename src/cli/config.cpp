@@ -1,6 +1,7 @@
 #include "cli/config.hpp"
 
 #include <algorithm>
+#include <stdexcept>
 
 #include <fmt/format.h>
 
@@ -49,8 +50,10 @@ std::string SettingHelp() {
   return help + "A --refresh-border in percent is of the widest image (48 px at 1280)";
 }
 
-// Applies the options of `file` that are not set yet; returns what it set, as typed.
-std::vector<std::string> ApplyOptionFile(CLI::App* command, const io::OptionFile& file, bool is_preset) {
+// Applies the options of `file` that are not set yet; returns what it set, as
+// typed, and adds their names to *set_options when given.
+std::vector<std::string> ApplyOptionFile(CLI::App* command, const io::OptionFile& file, bool is_preset,
+                                         std::vector<std::string>* set_options = nullptr) {
   std::vector<std::string> words;
   for (const io::OptionValue& entry : file.options) {
     const std::string where = fmt::format("{}: line {}: {}", file.source, entry.line, entry.name);
@@ -73,8 +76,22 @@ std::vector<std::string> ApplyOptionFile(CLI::App* command, const io::OptionFile
       throw io::InputError(fmt::format("{}: {}", where, e.what()));
     }
     words.push_back(Typed(applied));
+    if (set_options != nullptr) set_options->push_back("--" + entry.name);
   }
   return words;
+}
+
+// Back to the default: its value through the option's own callback, then unset.
+void ResetToDefault(CLI::Option* option) {
+  const std::string default_text = option->get_default_str();
+  if (default_text.empty()) {
+    // Every option a preset sets has a default; one without could not be reset.
+    throw std::logic_error("preset option " + option->get_name() + " has no default to go back to");
+  }
+  option->clear();
+  option->add_result(default_text);
+  option->run_callback();
+  option->clear();
 }
 
 // An option's default as a list of values (CLI11 writes a list's as "[a,b]").
@@ -94,7 +111,7 @@ std::vector<std::string> DefaultValues(const CLI::Option& option) {
 
 }  // namespace
 
-void AddConfigOptions(CLI::App* command, ConfigArguments* args) {
+void AddConfigOptions(CLI::App* command, ConfigArguments* args, bool automatic) {
   command
       ->add_option("--config", args->files,
                    "Options from a YAML file: option names without their -- as keys (e.g. `thin: 2`), a list for "
@@ -102,18 +119,86 @@ void AddConfigOptions(CLI::App* command, ConfigArguments* args) {
                    "times: the command line wins, then the files in order, then --setting")
       ->check(CLI::ExistingFile)
       ->configurable(false);
-  command->add_option("--setting", args->setting, SettingHelp())->check(CLI::IsMember(PresetNames()));
+  if (!automatic) {
+    command->add_option("--setting", args->setting, SettingHelp())->check(CLI::IsMember(PresetNames()));
+    return;
+  }
+  std::vector<std::string> names = PresetNames();
+  names.push_back(kAutomaticSetting);
+  args->setting = kAutomaticSetting;
+  command
+      ->add_option("--setting", args->setting,
+                   SettingHelp() + ". auto (the default) chooses from the data and says why: a 2D (push-broom) lidar on "
+                                   "a drive gets push-broom, or push-broom-drifting when rig.yaml's trajectory_source "
+                                   "is visual-odometry; when it is not given, a held-out test decides whether the "
+                                   "trajectory drifts within the swathes (a second solve when it does); 3D lidars and "
+                                   "single frames get none (paper's defaults; single frames their own)")
+      ->check(CLI::IsMember(names))
+      ->capture_default_str();
 }
 
 AppliedConfiguration ApplyConfiguration(CLI::App* command, const ConfigArguments& args) {
   for (const std::string& path : args.files) ApplyOptionFile(command, io::ReadOptionFile(path), false);
   AppliedConfiguration applied;
   if (args.setting.empty()) return applied;  // --setting is read after the files: one may name it
-  const io::OptionFile& preset = PresetFile(args.setting);
-  applied.setting = args.setting;
-  applied.setting_words = ApplyOptionFile(command, preset, true);
-  applied.requires_push_broom_drive = preset.requires_data == io::kRequiresPushBroomDrive;
+  if (args.setting == kAutomaticSetting) {
+    applied.automatic = true;  // the data choose (ChooseSetting)
+    return applied;
+  }
+  ApplyPreset(command, args.setting, &applied);
   return applied;
+}
+
+void ApplyPreset(CLI::App* command, const std::string& name, AppliedConfiguration* applied) {
+  const io::OptionFile& preset = PresetFile(name);
+  for (const std::string& option : applied->set_options) ResetToDefault(command->get_option(option));
+  applied->set_options.clear();
+  applied->setting = name;
+  applied->setting_words = ApplyOptionFile(command, preset, true, &applied->set_options);
+  applied->requires_push_broom_drive = preset.requires_data == io::kRequiresPushBroomDrive;
+  if (applied->automatic) {
+    CLI::Option* setting = command->get_option("--setting");
+    setting->clear();
+    setting->add_result(name);
+    setting->run_callback();
+  }
+}
+
+AutomaticChoice ChooseSetting(const Rig& rig, std::size_t trajectory_poses, bool single_process) {
+  AutomaticChoice choice;
+  if (trajectory_poses < 2) {
+    choice.reason = "single frame(s): no preset (the single-frame defaults)";
+    return choice;
+  }
+  if (!rig.HasPushBroomLidar()) {
+    choice.reason = "3D lidar(s) on a drive: no preset measured better than the defaults";
+    return choice;
+  }
+  const std::string source = TrajectorySourceName(rig.trajectory_source);
+  switch (rig.trajectory_source) {
+    case TrajectorySource::kExact:
+    case TrajectorySource::kIns:
+    case TrajectorySource::kLidarOdometry:
+      choice.preset = "push-broom";
+      choice.reason = "a 2D (push-broom) lidar on a drive; rig.yaml: trajectory_source " + source;
+      return choice;
+    case TrajectorySource::kVisualOdometry:
+      choice.preset = "push-broom-drifting";
+      choice.reason = "a 2D (push-broom) lidar on a drive; rig.yaml: trajectory_source " + source;
+      return choice;
+    case TrajectorySource::kUnknown:
+      break;
+  }
+  if (!single_process) {
+    choice.preset = "push-broom-drifting";
+    choice.reason = "a 2D (push-broom) lidar on a drive, trajectory_source not given and no held-out drift test "
+                    "across MPI ranks: the drifting preset, whose cost on good odometry is the smaller mistake";
+    return choice;
+  }
+  choice.preset = "push-broom";
+  choice.test_drift = true;
+  choice.reason = "a 2D (push-broom) lidar on a drive, trajectory_source not given: the held-out drift test decides";
+  return choice;
 }
 
 std::vector<io::OptionValue> RunOptions(const CLI::App* command) {

@@ -15,20 +15,47 @@
 
 namespace scenecal::cli {
 
+// --setting's value that leaves the choice of the preset to the data (ChooseSetting).
+inline constexpr const char* kAutomaticSetting = "auto";
+
 struct ConfigArguments {
   std::vector<std::string> files;  // --config, in the order given
-  std::string setting;             // --setting: a preset's name
+  std::string setting;             // --setting: a preset's name, or kAutomaticSetting
 };
 
-// Registers --config and --setting on `command`.
-void AddConfigOptions(CLI::App* command, ConfigArguments* args);
+// Registers --config and --setting on `command`; with `automatic`, --setting
+// accepts kAutomaticSetting and defaults to it (calibrate), else it has no default.
+void AddConfigOptions(CLI::App* command, ConfigArguments* args, bool automatic = false);
 
 // What the preset set, for the log and the result's settings.
 struct AppliedConfiguration {
   std::string setting;                     // the preset's name; empty without one
   std::vector<std::string> setting_words;  // e.g. "--thin 2": what it set, as typed
+  std::vector<std::string> set_options;    // the options it set, e.g. "--thin"
   bool requires_push_broom_drive = false;  // its `requires: push-broom-drive`
+  bool automatic = false;                  // --setting auto: the preset is chosen from the data (ChooseSetting)
+  std::string automatic_reason;            // why ChooseSetting chose it
 };
+
+// --setting auto: the preset for this rig and trajectory, and why. A 2D
+// (push-broom) lidar on a drive gets a push-broom preset by rig.yaml's
+// trajectory_source; when the source is unknown, `push-broom` first and the
+// held-out drift test (TestDriftAt) then decides on `push-broom-drifting`
+// (without one process to test in, push-broom-drifting: the cheaper mistake).
+// 3D lidars and single frames get no preset (the command's defaults, and for
+// single frames their own).
+struct AutomaticChoice {
+  std::string preset;        // empty: none
+  std::string reason;
+  bool test_drift = false;   // push-broom now; the held-out drift test decides on push-broom-drifting
+};
+AutomaticChoice ChooseSetting(const Rig& rig, std::size_t trajectory_poses, bool single_process);
+
+// Applies the preset `name` to the options of `command` not set yet (as
+// ApplyConfiguration does) in place of the one `applied` describes, whose
+// options go back to their defaults first; *applied then describes `name`,
+// and --setting reads `name` (for the result's options block).
+void ApplyPreset(CLI::App* command, const std::string& name, AppliedConfiguration* applied);
 
 // Sets the options of `command` that are not set yet: from each --config
 // file, then from the --setting preset (which a file may name). A preset's

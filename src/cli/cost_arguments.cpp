@@ -235,10 +235,15 @@ io::Dataset OpenDatasetWithDefaults(const std::string& path, const CostArguments
                                     std::string* single_frame_defaults) {
   spdlog::info("opening {}", path);
   io::Dataset dataset = io::OpenDataset(path);
+  ApplyDatasetDefaults(dataset, args, options, single_frame_defaults);
+  return dataset;
+}
+
+void ApplyDatasetDefaults(const io::Dataset& dataset, const CostArguments& args, CalibrationOptions* options,
+                          std::string* single_frame_defaults) {
   options->cost.swathe.refresh_border_px = RefreshBorderPx(args.refresh_border, dataset.rig);
   *single_frame_defaults = ApplySingleFrameDefaults(dataset, args.BinsGiven(), options);
   if (!single_frame_defaults->empty()) spdlog::info("single-frame 3D-lidar data: {}", *single_frame_defaults);
-  return dataset;
 }
 
 void AddMotionCorrectionOptions(CLI::App* command, MotionCorrectionArguments* args) {

@@ -88,10 +88,14 @@ double RefreshBorderPx(const std::string& text, const Rig& rig);
 // nothing (no cap) for 0 = all hardware threads.
 std::unique_ptr<tbb::global_control> LimitThreads(int threads);
 
-// Opens the dataset at `path` (logged), sets the refresh border for its
-// images (RefreshBorderPx) and applies the single-frame defaults
-// for the options the user did not set (ApplySingleFrameDefaults; logged and
-// returned in *single_frame_defaults, "" when none). Throws io::InputError.
+// Sets the refresh border for the dataset's images (RefreshBorderPx) and
+// applies the single-frame defaults for the options the user did not set
+// (ApplySingleFrameDefaults; logged and returned in *single_frame_defaults,
+// "" when none).
+void ApplyDatasetDefaults(const io::Dataset& dataset, const CostArguments& args, CalibrationOptions* options,
+                          std::string* single_frame_defaults);
+
+// Opens the dataset at `path` (logged), then ApplyDatasetDefaults. Throws io::InputError.
 io::Dataset OpenDatasetWithDefaults(const std::string& path, const CostArguments& args, CalibrationOptions* options,
                                     std::string* single_frame_defaults);
 
