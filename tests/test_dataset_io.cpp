@@ -10,6 +10,7 @@
 #include "io/dataset.hpp"
 #include "io/inspect.hpp"
 #include "io/option_file.hpp"
+#include "io/result_file.hpp"
 #include "io_test_support.hpp"
 
 namespace scenecal {
@@ -493,6 +494,17 @@ TEST(DatasetIo, OptionFilesReadValuesListsAndAResultsOptionsBlock) {
   EXPECT_NE(message("\"th\\x00in\": 2\n").find("control character (0x00)"), std::string::npos);
   EXPECT_NE(message(std::string("thin: 2\0N\n", 10)).find("control character"), std::string::npos);
   EXPECT_EQ(message("thin: \"\\uD800\"\n").find("accepted"), std::string::npos);  // a lone surrogate
+  // A CR ends a line only before an LF; alone it stayed inside a name (found by fuzz_calibration_result).
+  EXPECT_NE(message("thin: 2\r\r\nscenes: 4\n").find("(0x0D) is a control character"), std::string::npos);
+  EXPECT_NE(message("thin: 2\r\nscenes: 4\r\n").find("accepted"), std::string::npos);
+  try {
+    io::ParseCalibrationResult("format: scenecal-calibration/1\nlidars: {}\npairs:\n  - camera: right0.5]\r\r\n"
+                               "    lidar: front\n    T_camera_lidar: [0, 0, 0, 0, 0, 0]\n",
+                               "result.yaml");
+    ADD_FAILURE() << "a camera name with a lone CR was accepted";
+  } catch (const io::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("line 4: byte 70 (0x0D)"), std::string::npos) << e.what();
+  }
   EXPECT_NE(message("thin: 2\n").find("accepted"), std::string::npos);
 }
 

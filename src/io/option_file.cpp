@@ -1,5 +1,6 @@
 #include "io/option_file.hpp"
 
+#include <algorithm>
 #include <set>
 
 #include <fmt/format.h>
@@ -21,19 +22,16 @@ void CheckPrintable(const detail::YamlReader& yaml, const YAML::Node& node, cons
   if (detail::FirstInvalidUtf8(node.Scalar()) != std::string_view::npos) {
     yaml.Fail(node, field, "text that is not UTF-8 (from an escape)", "printable text");
   }
-  for (const char c : node.Scalar()) {
-    const auto byte = static_cast<unsigned char>(c);
-    if (byte < 0x20 || byte == 0x7F) {
-      yaml.Fail(node, field, fmt::format("a control character (0x{:02X})", byte), "printable text");
-    }
+  const std::string& text = node.Scalar();
+  if (const auto control = std::find_if(text.begin(), text.end(), detail::IsControlCharacter); control != text.end()) {
+    yaml.Fail(node, field, fmt::format("a control character (0x{:02X})", static_cast<unsigned char>(*control)),
+              "printable text");
   }
 }
 
 // The text with its control characters shown as '?', for messages.
 std::string Shown(std::string text) {
-  for (char& c : text) {
-    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7F) c = '?';
-  }
+  std::replace_if(text.begin(), text.end(), detail::IsControlCharacter, '?');
   return text;
 }
 
@@ -50,12 +48,16 @@ OptionFile ParseOptions(const detail::YamlReader& yaml) {
     yaml.Fail(root, "options", "a result file without an options block",
               "a result written by `scenecal calibrate`, or a mapping of option names to values");
   }
-  yaml.CheckUniqueKeys(options, field);
   const auto where = [&](const std::string& key) { return field.empty() ? key : field + "." + key; };
+  // Before the duplicate check, whose message shows the key as it is.
+  yaml.RequireMap(options, field);
+  for (const auto& entry : options) {
+    if (entry.first.IsScalar()) CheckPrintable(yaml, entry.first, where(Shown(entry.first.Scalar())));
+  }
+  yaml.CheckUniqueKeys(options, field);
   for (const auto& entry : options) {
     const std::string key = entry.first.Scalar();
     const YAML::Node& value = entry.second;
-    CheckPrintable(yaml, entry.first, where(Shown(key)));
     if (key.empty() || key.front() == '-') {
       yaml.Fail(entry.first, where(key), "a key '" + key + "'", "an option name without its leading -- (e.g. thin)");
     }

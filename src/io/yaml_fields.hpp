@@ -37,6 +37,12 @@ std::string ReadTextFile(const std::filesystem::path& path, std::size_t max_byte
 // overlong forms, surrogates or code points past U+10FFFF), or npos.
 std::size_t FirstInvalidUtf8(std::string_view text);
 
+// An ASCII control character (C0 or DEL): none survives a YAML round trip as itself.
+inline bool IsControlCharacter(char c) {
+  const auto byte = static_cast<unsigned char>(c);
+  return byte < 0x20 || byte == 0x7F;
+}
+
 // Shortest decimal form that reads back to the same double ("{}" of fmt);
 // non-finite values in YAML spelling (.nan, .inf, -.inf).
 std::string FormatNumber(double value);
