@@ -12,19 +12,23 @@
 namespace scenecal::cli {
 
 namespace detail {
+// The whole of `text` as a finite number >= 0; false for anything else (a sign, a suffix, NaN).
+inline bool ParseNonNegativeNumber(const std::string& text, double* value) {
+  std::size_t used = 0;
+  try {
+    *value = std::stod(text, &used);
+  } catch (const std::exception&) {
+    return false;
+  }
+  return !text.empty() && used == text.size() && std::isfinite(*value) && *value >= 0.0;
+}
+
 inline CLI::Validator NumberCheck(bool allow_zero, const char* name, const char* expected) {
   return CLI::Validator(
       [allow_zero, expected](std::string& input) -> std::string {
         double value = 0.0;
-        std::size_t used = 0;
-        try {
-          value = std::stod(input, &used);
-        } catch (const std::exception&) {
-          used = 0;
-        }
-        if (used != input.size() || !std::isfinite(value) || value < 0.0 || (!allow_zero && value == 0.0))
-          return input + " is not " + expected;
-        return {};
+        const bool valid = ParseNonNegativeNumber(input, &value) && (allow_zero || value > 0.0);
+        return valid ? std::string() : input + " is not " + expected;
       },
       name);
 }
@@ -41,14 +45,7 @@ inline const CLI::Validator kPixelsOrPercent(
       const bool percent = !input.empty() && input.back() == '%';
       const std::string number = percent ? input.substr(0, input.size() - 1) : input;
       double value = 0.0;
-      std::size_t used = 0;
-      try {
-        value = std::stod(number, &used);
-      } catch (const std::exception&) {
-        used = 0;
-      }
-      if (number.empty() || used != number.size() || !std::isfinite(value) || value < 0.0 ||
-          (percent && value > 50.0)) {
+      if (!detail::ParseNonNegativeNumber(number, &value) || (percent && value > 50.0)) {
         return input + " is not a number of pixels >= 0 or a percentage N% with 0 <= N <= 50";
       }
       return {};
