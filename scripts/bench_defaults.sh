@@ -17,7 +17,7 @@
 # resident memory) and keeps it in OUT_DIR/table.md; with WRITE_BENCHMARK=1 it also replaces the table between
 # the "bench_defaults" markers in BENCHMARK.md. Simulated data stay in OUT_DIR/data (reused when present).
 # Other variables: SCENECAL (build/bin/scenecal), DISTANCE (simulate --distance; empty: the preset's own),
-# THREADS (calibrate --threads, 0 = all).
+# THREADS (calibrate --threads, 0 = all), TABLE_ONLY=1 (the table again from OUT_DIR/results.tsv, no run).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=${1:-out/bench_defaults}
@@ -37,7 +37,8 @@ threads=${THREADS:-0}
 case "$source_mode" in unknown | given) ;; *) echo "bench_defaults: SOURCE must be unknown or given" >&2; exit 2 ;; esac
 mkdir -p "$out/data" "$out/runs"
 results="$out/results.tsv"
-printf 'preset\todometry\tworld\tsetting\tstart\tlidar\ttranslation_m\trotation_deg\tseconds\tmax_rss_kb\tchosen\n' >"$results"
+[[ ${TABLE_ONLY:-0} == 1 ]] && presets=""  # the table again from $results, no run
+[[ ${TABLE_ONLY:-0} == 1 ]] || printf 'preset\todometry\tworld\tsetting\tstart\tlidar\ttranslation_m\trotation_deg\tseconds\tmax_rss_kb\tchosen\n' >"$results"
 
 simulate() {  # preset odometry world -> prints the dataset folder
   local preset=$1 odometry=$2 world=$3
@@ -79,7 +80,7 @@ preset, odometry, world, setting, start, run = sys.argv[1:7]
 seconds, rss_kb = open(run + '.time').read().split()[-2:]
 chosen = ''
 for line in open(run + '.yaml'):
-    m = re.match(r'\s*setting: (\S+?)[:\s]', line + ' ')
+    m = re.match(r'\s*setting: "?([^":\s]+)', line)
     if m and not chosen: chosen = m.group(1)
 for line in open(run + '.txt'):
     if 'T_base_lidar error' not in line: continue
@@ -96,7 +97,7 @@ done
 
 python3 - "$results" "$settings" "$out/table.md" <<'PY'
 import csv, statistics, sys
-rows = list(csv.DictReader(open(sys.argv[1]), delimiter='\t'))
+rows = list(csv.DictReader(open(sys.argv[1]), delimiter='\t', quoting=csv.QUOTE_NONE))
 settings = sys.argv[2].split()
 groups = {}
 for row in rows:

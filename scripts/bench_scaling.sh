@@ -18,8 +18,8 @@
 # camera only: rig.yaml rewritten, the data symlinked), so the camera axis is
 # measured on the same drive. Kernel: bench_dataset's BM_JointCost (one
 # EvaluateJoint at the rig.yaml guess, hard NID 32 bins, visitor kernel of
-# PairCost::Evaluate and AddHardCounts). End to end: calibrate --scheme joint
-# with the CLI defaults except the varied option, wall/user time and peak RSS
+# PairCost::Evaluate and AddHardCounts). End to end: calibrate --setting paper --scheme joint
+# (the paper's pipeline) except the varied option, wall/user time and peak RSS
 # from /usr/bin/time -v, evaluations and optimisation seconds from its log.
 # Prints Markdown (tables and least-squares fits) and keeps every log in OUT_DIR.
 set -euo pipefail
@@ -96,7 +96,7 @@ if [[ $parts == *e2e* ]]; then
     local name=$1 path=$2 threads=$3
     shift 3
     echo "e2e: $name threads $threads $*" >&2
-    /usr/bin/time -v "$scenecal" calibrate "$path" --scheme joint --threads "$threads" --no-basin-check \
+    /usr/bin/time -v "$scenecal" calibrate "$path" --setting paper --scheme joint --threads "$threads" --no-basin-check \
       --output "$out/e2e_${name}_t$threads.yaml" "$@" >"$out/e2e_${name}_t$threads.log" 2>&1 || true
   }
   for threads in 1 2; do
@@ -212,7 +212,7 @@ if e2e:
         r = rows.get((view, scenes, scans, 1, 1))
         return r["points"] if r else None
     order = lambda n: (n.startswith("maxscans") is False, n.startswith("scenes") is False, points_of(n) or 0)
-    print("\n### Full `scenecal calibrate --scheme joint` (defaults otherwise)\n")
+    print("\n### Full `scenecal calibrate --setting paper --scheme joint`\n")
     print("| run | threads | used scenes | swathe points per evaluation | evaluations | optimisation s | ms per evaluation | load + build s | wall s | user s | peak RSS MB | exit |")
     print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for (name, threads) in sorted(e2e, key=lambda k: (k[1], order(k[0]))):
