@@ -410,11 +410,15 @@ struct DatasetSolve {
 };
 
 // Options, scenes, calibrator, solve: kExitSuccess with *solve filled, else
-// the exit code (logged).
+// the exit code (logged). `spent_s`: seconds of the command already spent,
+// taken off --time-budget (a second solve gets what the first left).
 int SolveDataset(const CalibrateArguments& args, const io::Dataset& dataset, ProcessGroup& group,
-                 DatasetSolve* solve) {
+                 DatasetSolve* solve, double spent_s = 0.0) {
   const auto start = std::chrono::steady_clock::now();
   if (const int exit_code = MakeCalibrationOptions(args, &solve->options); exit_code != kExitSuccess) return exit_code;
+  if (solve->options.time_budget_s > 0.0) {
+    solve->options.time_budget_s = std::max(solve->options.time_budget_s - spent_s, 1e-3);
+  }
   ApplyDatasetDefaults(dataset, args.cost, &solve->options, &solve->single_frame_defaults);
   if (const int exit_code = CheckSettingFitsDataset(args, dataset, solve->options); exit_code != kExitSuccess) {
     return exit_code;
@@ -450,7 +454,13 @@ AutomaticChoice ChooseAutomatically(CalibrateArguments* args, const io::Dataset&
 // push-broom-drifting solves again from the initial guess, as that preset
 // alone would. *evidence: the test's figures, for the result.
 int DecideOnDrift(CalibrateArguments* args, const io::Dataset& dataset, ProcessGroup& group,
-                  std::unique_ptr<DatasetSolve>* solve, std::string* evidence) {
+                  std::unique_ptr<DatasetSolve>* solve, double spent_s, std::string* evidence) {
+  if (args->time_budget_s > 0.0 && spent_s >= args->time_budget_s) {
+    spdlog::warn("no held-out drift test: the time budget ({} s) is spent; the push-broom answer stands",
+                 args->time_budget_s);
+    *evidence = "skipped: time budget spent";
+    return kExitSuccess;
+  }
   const auto start = std::chrono::steady_clock::now();
   DriftTestOptions test;
   test.motion = (*solve)->options.motion;
@@ -468,7 +478,8 @@ int DecideOnDrift(CalibrateArguments* args, const io::Dataset& dataset, ProcessG
   spdlog::info("--setting auto: push-broom-drifting, solving again from the initial guess");
   solve->reset();  // the first solve's scenes go before the second's are loaded
   *solve = std::make_unique<DatasetSolve>();
-  return SolveDataset(*args, dataset, group, solve->get());
+  const double tested_s = spent_s + std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return SolveDataset(*args, dataset, group, solve->get(), tested_s);
 }
 
 int RunCalibration(CalibrateArguments& args, ProcessGroup& group) {
@@ -492,7 +503,7 @@ int RunCalibration(CalibrateArguments& args, ProcessGroup& group) {
   std::string drift_evidence;
   if (choice.test_drift) {
     const double first_solve_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    if (const int exit_code = DecideOnDrift(&args, dataset, group, &solve, &drift_evidence);
+    if (const int exit_code = DecideOnDrift(&args, dataset, group, &solve, first_solve_s, &drift_evidence);
         exit_code != kExitSuccess) {
       return exit_code;
     }
