@@ -27,6 +27,7 @@
 #include "core/geometry.hpp"
 #include "core/motion_estimation.hpp"
 #include "io/dataset.hpp"
+#include "io_test_support.hpp"
 #include "sim/simulator.hpp"
 #include "support/small_dataset.hpp"
 
@@ -50,6 +51,20 @@ class CalibrateOnSimulation : public ::testing::Test {
   static void TearDownTestSuite() { fs::remove_all(root_); }
 
   static fs::path DatasetPath() { return root_ / "robotcar"; }
+
+  // A copy of the dataset under root_ / name whose rig.yaml is `edit` of the original's text.
+  static fs::path CopyDatasetWithRig(const std::string& name, const std::function<std::string(std::string)>& edit) {
+    const fs::path copy = root_ / name;
+    fs::copy(DatasetPath(), copy, fs::copy_options::recursive);
+    testing::WriteFile(copy / "rig.yaml", edit(testing::ReadFile(copy / "rig.yaml")));
+    return copy;
+  }
+  // rig.yaml's text with every 2D lidar made a 3D one.
+  static std::string WithoutPushBroom(std::string rig) {
+    for (std::size_t at = rig.find("kind: 2d"); at != std::string::npos; at = rig.find("kind: 2d", at))
+      rig.replace(at, 8, "kind: 3d");
+    return rig;
+  }
 
   static CalibrationInput Load(const io::Dataset& dataset, const SceneOptions& scene_options) {
     return test::LoadCalibrationInput(dataset, scene_options);
@@ -431,17 +446,7 @@ TEST_F(CalibrateOnSimulation, CliSettingFillsTheOptionsNotGivenAndRefusesARigWit
   EXPECT_EQ(scaled_settings["odometry_scale_percent"].as<std::string>(), "0.25");
 
   // A rig with no 2D lidar: exit 2, the reason named, no file.
-  const fs::path no_push_broom = root_ / "no_push_broom";
-  fs::copy(DatasetPath(), no_push_broom, fs::copy_options::recursive);
-  {
-    std::ifstream in(no_push_broom / "rig.yaml");
-    std::stringstream rig;
-    rig << in.rdbuf();
-    std::string text_3d = rig.str();
-    for (std::size_t at = text_3d.find("kind: 2d"); at != std::string::npos; at = text_3d.find("kind: 2d", at))
-      text_3d.replace(at, 8, "kind: 3d");
-    std::ofstream(no_push_broom / "rig.yaml") << text_3d;
-  }
+  const fs::path no_push_broom = CopyDatasetWithRig("no_push_broom", WithoutPushBroom);
   const fs::path refused = root_ / "refused.yaml";
   std::string refused_text;
   EXPECT_EQ(RunCli("calibrate " + no_push_broom.string() + " --output " + refused.string() +
@@ -483,17 +488,14 @@ TEST_F(CalibrateOnSimulation, CliAutoSettingChoosesFromTheRigAndTheData) {
   EXPECT_NE(text.find("--setting auto: push-broom (a 2D (push-broom) lidar on a drive"), std::string::npos) << text;
 
   // The same drive with trajectory_source left out: the data decide, and the result says on what evidence.
-  const fs::path unknown = root_ / "auto_unknown";
-  fs::copy(DatasetPath(), unknown, fs::copy_options::recursive);
-  {
-    std::ifstream in(unknown / "rig.yaml");
+  const fs::path unknown = CopyDatasetWithRig("auto_unknown", [](const std::string& rig) {
+    std::istringstream in(rig);
     std::string line, kept;
     while (std::getline(in, line)) {
       if (line.rfind("trajectory_source:", 0) != 0) kept += line + "\n";
     }
-    in.close();
-    std::ofstream(unknown / "rig.yaml") << kept;
-  }
+    return kept;
+  });
   const YAML::Node tested = calibrate(unknown, "auto_unknown.yaml",
                                       " --scenes 6 --lbfgs-iterations 2 --stages 1 --alternations 2 --no-uncertainty "
                                       "--no-basin-check");
@@ -513,18 +515,7 @@ TEST_F(CalibrateOnSimulation, CliAutoSettingChoosesFromTheRigAndTheData) {
   EXPECT_EQ(budget["options"]["setting"].as<std::string>(), "push-broom");
 
   // A 3D lidar on the same drive: no preset, and the reason.
-  const fs::path spinning = root_ / "auto_3d";
-  fs::copy(DatasetPath(), spinning, fs::copy_options::recursive);
-  {
-    std::ifstream in(spinning / "rig.yaml");
-    std::stringstream rig;
-    rig << in.rdbuf();
-    std::string text_3d = rig.str();
-    for (std::size_t at = text_3d.find("kind: 2d"); at != std::string::npos; at = text_3d.find("kind: 2d", at))
-      text_3d.replace(at, 8, "kind: 3d");
-    in.close();
-    std::ofstream(spinning / "rig.yaml") << text_3d;
-  }
+  const fs::path spinning = CopyDatasetWithRig("auto_3d", WithoutPushBroom);
   const YAML::Node none = calibrate(spinning, "auto_3d.yaml", quick + " --scheme joint");
   ASSERT_TRUE(none["settings"]) << text;
   EXPECT_FALSE(none["settings"]["setting"]);

@@ -224,21 +224,6 @@ int PerturbInitialGuesses(const CalibrateArguments& args, const io::Dataset& dat
 
 // What the benchmarks found for push-broom lidars and for drift corrections
 // per lidar, where the options given may not be the best.
-// The push-broom preset that fits a trajectory from `source`; empty when unknown.
-std::string PushBroomPresetFor(TrajectorySource source) {
-  switch (source) {
-    case TrajectorySource::kExact:
-    case TrajectorySource::kIns:
-    case TrajectorySource::kLidarOdometry:
-      return "push-broom";
-    case TrajectorySource::kVisualOdometry:
-      return "push-broom-drifting";
-    case TrajectorySource::kUnknown:
-      break;
-  }
-  return "";
-}
-
 void LogAdviceForRig(const CalibrateArguments& args, const CalibrationOptions& options, const Rig& rig) {
   const bool has_push_broom = rig.HasPushBroomLidar();
   const std::string source = TrajectorySourceName(rig.trajectory_source);

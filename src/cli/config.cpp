@@ -81,6 +81,13 @@ std::vector<std::string> ApplyOptionFile(CLI::App* command, const io::OptionFile
   return words;
 }
 
+// The option's value replaced by `text`, through the option's own callback (set, as by the command line).
+void SetOptionValue(CLI::Option* option, const std::string& text) {
+  option->clear();
+  option->add_result(text);
+  option->run_callback();
+}
+
 // Back to the default: its value through the option's own callback, then unset.
 void ResetToDefault(CLI::Option* option) {
   const std::string default_text = option->get_default_str();
@@ -88,9 +95,7 @@ void ResetToDefault(CLI::Option* option) {
     // Every option a preset sets has a default; one without could not be reset.
     throw std::logic_error("preset option " + option->get_name() + " has no default to go back to");
   }
-  option->clear();
-  option->add_result(default_text);
-  option->run_callback();
+  SetOptionValue(option, default_text);
   option->clear();
 }
 
@@ -156,12 +161,21 @@ void ApplyPreset(CLI::App* command, const std::string& name, AppliedConfiguratio
   applied->setting = name;
   applied->setting_words = ApplyOptionFile(command, preset, true, &applied->set_options);
   applied->requires_push_broom_drive = preset.requires_data == io::kRequiresPushBroomDrive;
-  if (applied->automatic) {
-    CLI::Option* setting = command->get_option("--setting");
-    setting->clear();
-    setting->add_result(name);
-    setting->run_callback();
+  if (applied->automatic) SetOptionValue(command->get_option("--setting"), name);
+}
+
+std::string PushBroomPresetFor(TrajectorySource source) {
+  switch (source) {
+    case TrajectorySource::kExact:
+    case TrajectorySource::kIns:
+    case TrajectorySource::kLidarOdometry:
+      return "push-broom";
+    case TrajectorySource::kVisualOdometry:
+      return "push-broom-drifting";
+    case TrajectorySource::kUnknown:
+      break;
   }
+  return "";
 }
 
 AutomaticChoice ChooseSetting(const Rig& rig, std::size_t trajectory_poses, bool single_process) {
@@ -175,19 +189,10 @@ AutomaticChoice ChooseSetting(const Rig& rig, std::size_t trajectory_poses, bool
     return choice;
   }
   const std::string source = TrajectorySourceName(rig.trajectory_source);
-  switch (rig.trajectory_source) {
-    case TrajectorySource::kExact:
-    case TrajectorySource::kIns:
-    case TrajectorySource::kLidarOdometry:
-      choice.preset = "push-broom";
-      choice.reason = "a 2D (push-broom) lidar on a drive; rig.yaml: trajectory_source " + source;
-      return choice;
-    case TrajectorySource::kVisualOdometry:
-      choice.preset = "push-broom-drifting";
-      choice.reason = "a 2D (push-broom) lidar on a drive; rig.yaml: trajectory_source " + source;
-      return choice;
-    case TrajectorySource::kUnknown:
-      break;
+  choice.preset = PushBroomPresetFor(rig.trajectory_source);
+  if (!choice.preset.empty()) {
+    choice.reason = "a 2D (push-broom) lidar on a drive; rig.yaml: trajectory_source " + source;
+    return choice;
   }
   if (!single_process) {
     choice.preset = "push-broom-drifting";

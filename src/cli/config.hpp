@@ -37,6 +37,11 @@ struct AppliedConfiguration {
   std::string automatic_reason;            // why ChooseSetting chose it
 };
 
+// The push-broom preset measured for a trajectory from `source`: push-broom
+// for exact, INS or lidar odometry, push-broom-drifting for visual odometry;
+// empty when the source is unknown.
+std::string PushBroomPresetFor(TrajectorySource source);
+
 // --setting auto: the preset for this rig and trajectory, and why. A 2D
 // (push-broom) lidar on a drive gets a push-broom preset by rig.yaml's
 // trajectory_source; when the source is unknown, `push-broom` first and the

@@ -48,6 +48,14 @@ std::map<TimeUs, CorrectionFrame> CorrectionFramesByTime(const std::vector<PairC
 
 namespace {
 
+// A correction's four terms in the order scale, turn a, turn b, roll, and back.
+Eigen::Vector4d TermsOf(const SwatheMotionCorrection& c) {
+  return {c.scale, c.turn_a_rad_per_m, c.turn_b_rad_per_m, c.roll_rad_per_m};
+}
+SwatheMotionCorrection CorrectionOf(const Eigen::Vector4d& terms) {
+  return SwatheMotionCorrection{terms[0], terms[1], terms[2], terms[3]};
+}
+
 // The drive's scale: one value in every frame, scored by the mean of all
 // frames' costs, so that it cannot follow each frame's own misfit the way a
 // per-frame scale does. Leaves every frame at the answer and *costs (per
@@ -109,7 +117,7 @@ class FreeTerms {
   SwatheMotionCorrection Correction(const Eigen::VectorXd& x, const Eigen::Vector4d& base) const {
     Eigen::Vector4d terms = base;
     for (std::size_t i = 0; i < terms_.size(); ++i) terms[terms_[i]] = x[static_cast<Eigen::Index>(i)];
-    return SwatheMotionCorrection{terms[0], terms[1], terms[2], terms[3]};
+    return CorrectionOf(terms);
   }
 
  private:
@@ -126,8 +134,7 @@ struct FrameOutcome {
 // One frame's free terms by the simplex, from its correction before; leaves the frame at the answer.
 FrameOutcome CorrectFrame(const CorrectionFrame& frame, const FreeTerms& free_terms,
                           const MotionCorrectionOptions& options) {
-  const SwatheMotionCorrection start = frame.Correction();
-  const Eigen::Vector4d start_terms(start.scale, start.turn_a_rad_per_m, start.turn_b_rad_per_m, start.roll_rad_per_m);
+  const Eigen::Vector4d start_terms = TermsOf(frame.Correction());
   Eigen::VectorXd x = free_terms.From(start_terms);
   NelderMeadOptions nelder_mead;
   nelder_mead.max_iterations = options.max_iterations;
@@ -194,10 +201,6 @@ MotionCorrectionSummary EstimateMotionCorrections(const std::vector<PairCost*>& 
 
 namespace {
 
-Eigen::Vector4d TermsOf(const SwatheMotionCorrection& c) {
-  return {c.scale, c.turn_a_rad_per_m, c.turn_b_rad_per_m, c.roll_rad_per_m};
-}
-
 // Frame `held_out`'s correction predicted from its neighbours in time (linear
 // between the two; the one there is at an end of the drive).
 SwatheMotionCorrection Predicted(const std::vector<TimeUs>& times, const std::vector<const CorrectionFrame*>& frames,
@@ -211,7 +214,7 @@ SwatheMotionCorrection Predicted(const std::vector<TimeUs>& times, const std::ve
   } else if (has_before || has_after) {
     terms = TermsOf(frames[has_before ? held_out - 1 : held_out + 1]->Correction());
   }
-  return SwatheMotionCorrection{terms[0], terms[1], terms[2], terms[3]};
+  return CorrectionOf(terms);
 }
 
 }  // namespace
