@@ -1,4 +1,5 @@
 // The alternating scheme (paper eq. 12-14) on costs with known minima.
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstdio>
@@ -305,6 +306,68 @@ TEST(Alternating, StepScalesAndTheBatchHookReachTheLowerLevel) {
   std::string why;
   EXPECT_FALSE(bad.IsValid(&why));
   EXPECT_NE(why.find("step scales"), std::string::npos) << why;
+}
+
+// The adaptive schedule: an alternation whose levels barely moved goes on at the
+// next stage's first position (every stage is still visited, the batch hook sees
+// each stage start), in the last stage two positions on; the answer is the fixed
+// schedule's, from fewer lower-level solves.
+TEST(Alternating, AdaptiveScheduleSkipsSettledAlternationsAndEndsWhereTheFixedOneDoes) {
+  const auto solve = [](bool skip_settled, std::vector<int>* positions) {
+    ThreadLowerLevelBackend backend({Bowl(kT_base_lidar_true, 1.0, kWidth),
+                                     Bowl(kT_base_right.inverse() * kT_base_lidar_true, 1.0, kWidth)},
+                                    [positions](const std::vector<LowerLevelTask>& tasks) {
+                                      positions->push_back(tasks.front().alternation);
+                                    });
+    AlternatingOptions options;
+    options.max_alternations = 40;
+    options.stage_starts = {7, 14};
+    options.min_alternations = 15;
+    options.skip_settled = skip_settled;
+    return SolveAlternating(StereoProblem(Perturbed()), options, backend);
+  };
+  std::vector<int> fixed_positions;
+  std::vector<int> adaptive_positions;
+  const AlternatingResult fixed = solve(false, &fixed_positions);
+  const AlternatingResult adaptive = solve(true, &adaptive_positions);
+  ASSERT_TRUE(fixed.success) << fixed.termination;
+  ASSERT_TRUE(adaptive.success) << adaptive.termination;
+  for (std::size_t i = 0; i < fixed_positions.size(); ++i) EXPECT_EQ(fixed_positions[i], static_cast<int>(i));
+  EXPECT_EQ(static_cast<int>(adaptive_positions.size()), adaptive.alternations);
+  EXPECT_LT(adaptive.alternations, fixed.alternations);
+  for (const int stage_start : {0, 7, 14}) {
+    EXPECT_NE(std::find(adaptive_positions.begin(), adaptive_positions.end(), stage_start), adaptive_positions.end())
+        << "stage start " << stage_start << " skipped";
+  }
+  for (std::size_t i = 1; i < adaptive_positions.size(); ++i) {
+    const int step = adaptive_positions[i] - adaptive_positions[i - 1];
+    EXPECT_GE(step, 1);
+    if (step > 1) {
+      const bool to_stage_start = adaptive_positions[i] == 7 || adaptive_positions[i] == 14;
+      EXPECT_TRUE(to_stage_start || (adaptive_positions[i - 1] >= 14 && step == 2))
+          << adaptive_positions[i - 1] << " -> " << adaptive_positions[i];
+      // Only an alternation that barely moved is skipped past.
+      const AlternationRecord& settled = adaptive.history[i - 1];
+      EXPECT_LE(settled.max_change_translation_m, 10.0 * AlternatingOptions{}.stop_translation_m);
+    }
+    EXPECT_EQ(adaptive.history[i].alternation, adaptive_positions[i]);
+  }
+  EXPECT_LT(TranslationError(adaptive.T_base_lidar[0], fixed.T_base_lidar[0]), 1e-3);
+  EXPECT_LT(RotationErrorDegrees(adaptive.T_base_lidar[0], fixed.T_base_lidar[0]), 0.01);
+  EXPECT_NE(adaptive.termination.find("schedule position"), std::string::npos) << adaptive.termination;
+}
+
+// The calibration's stages give the schedule's stage starts: 3 stages over 20 alternations begin at 0, 7, 14.
+TEST(Alternating, StageStartsFollowTheStagesSpread) {
+  CalibrationOptions options;
+  options.stages = {{1.0, 0.004, 2}, {0.3, 0.0015, 1}, {0.1, 0.0, 1}};
+  options.alternating.max_alternations = 40;
+  options.alternating.stage_alternations = 20;
+  options.alternating.skip_settled = true;
+  const AlternatingOptions alternating = AlternatingOptionsFor(options);
+  EXPECT_TRUE(alternating.skip_settled);
+  EXPECT_EQ(alternating.stage_starts, (std::vector<int>{7, 14}));
+  EXPECT_EQ(alternating.min_alternations, 15);
 }
 
 TEST(Alternating, RejectsInvalidInput) {

@@ -51,6 +51,7 @@ struct AlternatingArguments {
   // Not given: by the lower solver (the paper's 5 m / 5 rad with the simplex, looser with lbfgs).
   std::optional<double> sigma0_translation_m;
   std::optional<double> sigma0_rotation_rad;
+  std::string schedule = kCoreDefaults.alternating.skip_settled ? "adaptive" : "fixed";
   double stop_translation_m = kCoreDefaults.alternating.stop_translation_m;
   double stop_rotation_deg = DegreesFromRadians(kCoreDefaults.alternating.stop_rotation_rad);
   double camera_sigma_translation_m = kCoreDefaults.alternating.default_camera_sigma_translation_m;
@@ -65,6 +66,7 @@ struct AlternatingArguments {
     settings->initial_sigma_rotation_rad = sigma0_rotation_rad.value_or(0.0);
     settings->stop_translation_m = stop_translation_m;
     settings->stop_rotation_rad = RadiansFromDegrees(stop_rotation_deg);
+    settings->skip_settled = schedule == "adaptive";
     settings->default_camera_sigma_translation_m = camera_sigma_translation_m;
     settings->default_camera_sigma_rotation_rad = RadiansFromDegrees(camera_sigma_rotation_deg);
   }
@@ -669,6 +671,13 @@ void AddAlternatingOptions(CLI::App* command, AlternatingArguments* alt) {
                       "the levels settle within 0.001 deg after 26-32 alternations without moving the answer "
                       "(docs/findings.md)")
       ->check(CLI::Range(0, 10000))
+      ->capture_default_str();
+  command->add_option("--alternation-schedule", alt->schedule,
+                      "alt: fixed (the paper: each alternation takes one penalty step and its share of the stages) "
+                      "or adaptive (an alternation in which both levels moved less than 10 x the stop thresholds "
+                      "is not repeated: the run goes on at the next stage, or in the last stage tightens the penalty "
+                      "two steps; the push-broom presets)")
+      ->check(CLI::IsMember({"fixed", "adaptive"}))
       ->capture_default_str();
   command->add_option("--shrink", alt->shrink, "alt: covariance factor w of the penalty, P(i+1) = w P(i), in (0, 1)")
       ->check(CLI::Range(1e-6, 0.999999))

@@ -53,6 +53,7 @@ struct ExperimentArguments {
   std::vector<std::string> metrics = {"nid", "mi"};
   int alternations = kCoreDefaults.alternating.max_alternations;
   int stage_alternations = kCoreDefaults.alternating.stage_alternations;  // alt: stages over the first N (0 = all)
+  std::string schedule = kCoreDefaults.alternating.skip_settled ? "adaptive" : "fixed";  // alt: fixed | adaptive
   // alt: where the penalty's sigmas hold.
   std::string penalty_frame = PenaltyFrameName(kCoreDefaults.alternating.penalty_frame);
   int threads = kCoreDefaults.threads;
@@ -257,6 +258,7 @@ int MakeRunOptions(const ExperimentArguments& args, CalibrationOptions* options)
   }
   options->alternating.max_alternations = args.alternations;
   options->alternating.stage_alternations = args.stage_alternations;
+  options->alternating.skip_settled = args.schedule == "adaptive";
   ParsePenaltyFrame(args.penalty_frame, &options->alternating.penalty_frame);  // the CLI checked the name
   if (!AlternatingOptionsFor(*options).IsValid(&why)) {
     spdlog::error("invalid alt options: {}", why);
@@ -502,7 +504,7 @@ report::ExperimentReportData MakeReportData(const ExperimentArguments& args, con
   data.settings["alternations (alt)"] =
       std::to_string(args.alternations) +
       (args.stage_alternations > 0 ? ", the stages over the first " + std::to_string(args.stage_alternations) : "") +
-      "; penalty in the " + args.penalty_frame + " frame";
+      "; penalty in the " + args.penalty_frame + " frame; " + args.schedule + " schedule";
   data.settings["lower solver"] = args.lower_solver + " (" + BinningName(options.cost.histogram.binning) + " binning)";
   if (options.lower_solver == LowerSolver::kLbfgs) {
     data.settings["L-BFGS iterations per run"] = std::to_string(options.gradient.max_iterations);
@@ -668,6 +670,10 @@ CommandRunner AddExperimentCommand(CLI::App& app) {
                       "alt: spread the coarse-to-fine stages over the first N alternations, the rest only tighten "
                       "the penalty (0: over all; as calibrate's)")
       ->check(CLI::Range(0, 10000))
+      ->capture_default_str();
+  command->add_option("--alternation-schedule", args->schedule,
+                      "alt: fixed (the paper) or adaptive (settled alternations end their stage; as calibrate's)")
+      ->check(CLI::IsMember({"fixed", "adaptive"}))
       ->capture_default_str();
   command->add_option("--penalty-frame", args->penalty_frame,
                       "alt: where the penalty's sigmas hold, lidar or camera (as calibrate's)")

@@ -26,6 +26,7 @@ bool AlternatingOptions::IsValid(std::string* why) const {
   if (!(default_camera_sigma_translation_m >= 0) || !(default_camera_sigma_rotation_rad >= 0))
     return Invalid(why, "default camera sigmas must be non-negative");
   if (!(time_budget_s >= 0)) return Invalid(why, "time budget must be non-negative");
+  if (!(settle_factor >= 0)) return Invalid(why, "settle_factor must be non-negative");
   if (!(agreement_translation_m > 0) || !(agreement_rotation_rad > 0))
     return Invalid(why, "agreement thresholds must be positive");
   for (const double scale : lower_step_scale) {
@@ -362,8 +363,8 @@ Change FinishRecord(const LevelEstimates& estimates, const Change& change, Alter
 }
 
 // Why the alternations stop after `alternation`; empty to go on.
-std::string StopReason(const AlternatingOptions& options, int alternation, bool out_of_time, const Change& change,
-                       const Change& disagreement) {
+std::string StopReason(const AlternatingOptions& options, int alternation, int run, bool out_of_time,
+                       const Change& change, const Change& disagreement) {
   if (out_of_time) {
     std::ostringstream message;
     message << "time budget of " << options.time_budget_s << " s ran out during alternation " << alternation + 1
@@ -375,10 +376,23 @@ std::string StopReason(const AlternatingOptions& options, int alternation, bool 
                        disagreement.translation_m <= options.stop_translation_m &&
                        disagreement.rotation_rad <= options.stop_rotation_rad;
   if (alternation > 0 && alternation + 1 >= options.min_alternations && settled) {
-    return "converged after " + std::to_string(alternation + 1) +
-           " alternations: both levels moved and disagree less than the stop thresholds";
+    return "converged after " + std::to_string(run) + " alternations" +
+           (run != alternation + 1 ? " (schedule position " + std::to_string(alternation + 1) + ")" : std::string()) +
+           ": both levels moved and disagree less than the stop thresholds";
   }
   return "";
+}
+
+// The schedule position after `alternation`: the next one, or with skip_settled
+// and levels that barely moved, the next stage's first (the last stage: two on).
+int NextAlternation(const AlternatingOptions& options, int alternation, const Change& change) {
+  const bool settled = change.translation_m <= options.settle_factor * options.stop_translation_m &&
+                       change.rotation_rad <= options.settle_factor * options.stop_rotation_rad;
+  if (!options.skip_settled || !settled || alternation == 0) return alternation + 1;
+  for (const int start : options.stage_starts) {
+    if (start > alternation) return start;
+  }
+  return alternation + 2;
 }
 
 }  // namespace
@@ -400,7 +414,8 @@ AlternatingResult SolveAlternating(const AlternatingProblem& problem, const Alte
   for (std::size_t l = 0; l < problem.lidars.size(); ++l)
     result.T_base_lidar[l] = problem.lidars[l].T_base_lidar_initial;
 
-  for (int alternation = 0; alternation < options.max_alternations; ++alternation) {
+  int run = 0;  // alternations run; `alternation` is the schedule's position (penalty, stage)
+  for (int alternation = 0; alternation < options.max_alternations;) {
     ThrowIfInterrupted();
     AlternationRecord record = StartRecord(options, alternation);
     const std::vector<Matrix6d> information = PairInformation(options, record, estimates.upper);
@@ -418,13 +433,17 @@ AlternatingResult SolveAlternating(const AlternatingProblem& problem, const Alte
     const Change disagreement = FinishRecord(estimates, change, &record);
     record.elapsed_s = budget.ElapsedS();
     result.history.push_back(record);
-    result.alternations = alternation + 1;
+    result.alternations = ++run;
     if (progress) progress(record);
-    result.termination = StopReason(options, alternation, budget.RanOut(), change, disagreement);
+    result.termination = StopReason(options, alternation, run, budget.RanOut(), change, disagreement);
     if (!result.termination.empty()) break;
+    alternation = NextAlternation(options, alternation, change);
   }
   if (result.termination.empty()) {
-    result.termination = "reached the maximum of " + std::to_string(options.max_alternations) + " alternations";
+    result.termination = "reached the maximum of " + std::to_string(options.max_alternations) + " alternations" +
+                         (run != options.max_alternations
+                              ? " (schedule positions; " + std::to_string(run) + " run, the settled ones skipped)"
+                              : std::string());
   }
   result.T_camera_lidar_upper = estimates.upper;
   result.T_camera_lidar_lower = estimates.lower;

@@ -66,6 +66,17 @@ struct AlternatingOptions {
   // No early stop before this many alternations (e.g. until a coarse-to-fine
   // schedule has reached its sharpest stage).
   int min_alternations = 1;
+  // The schedule's positions (alternation indices) where a coarse-to-fine stage
+  // begins, ascending; read only with skip_settled.
+  std::vector<int> stage_starts;
+  // Adaptive schedule: an alternation in which both levels moved by less than
+  // settle_factor x the stop thresholds is not repeated with the same stage and
+  // a barely tighter penalty. Before the last stage the schedule goes on at the
+  // next stage's first position; in the last stage it advances two positions,
+  // so the penalty tightens twice as fast while the levels follow it without
+  // moving. Off: the paper's one position per alternation.
+  bool skip_settled = false;
+  double settle_factor = 10.0;
   // Simplex search of the lower level (the paper: 200 iterations). Its initial
   // steps are capped by the current penalty sigma, so later alternations
   // search a neighbourhood of the size the penalty allows.

@@ -137,8 +137,23 @@ void RecordCommonSettings(const CalibrationOptions& options, CalibrationResult* 
   settings["seed"] = std::to_string(options.seed);
 }
 
+SwatheImages PreparedImageCache::Get(const std::string& camera, TimeUs image_t_us, const cv::Mat& intensity,
+                                     const NormalisationOptions& normalisation) {
+  const std::pair<std::string, TimeUs> key{camera, image_t_us};
+  {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    const auto found = images_.find(key);
+    if (found != images_.end()) return found->second;
+  }
+  // Prepared outside the lock (the frames of one pair are prepared in parallel);
+  // a frame prepared twice at once keeps the first copy stored.
+  SwatheImages prepared = SwatheImages::Prepare(intensity, normalisation);
+  const std::lock_guard<std::mutex> lock(mutex_);
+  return images_.emplace(key, std::move(prepared)).first->second;
+}
+
 PairCost BuildPairCost(const CalibrationInput& input, const CameraInfo& camera, const std::string& lidar,
-                       const CalibrationOptions& options) {
+                       const CalibrationOptions& options, PreparedImageCache* image_cache) {
   std::vector<const Scene*> scenes;
   for (const Scene& scene : input.selection.scenes) {
     if (scene.camera == camera.name && scene.lidar == lidar) scenes.push_back(&scene);
@@ -161,7 +176,10 @@ PairCost BuildPairCost(const CalibrationInput& input, const CameraInfo& camera, 
       scans.push_back(&scan->second);
     }
     // Once per frame: the swathes of its range bands and the trimming pass share them.
-    const SwatheImages images = SwatheImages::Prepare(image->second.intensity, options.normalisation);
+    const SwatheImages images =
+        image_cache != nullptr
+            ? image_cache->Get(camera.name, scene.image_t_us, image->second.intensity, options.normalisation)
+            : SwatheImages::Prepare(image->second.intensity, options.normalisation);
     const auto build = [&](const Scene& kept_scene, const std::vector<const LidarScan*>& kept_scans) {
       if (options.range_split_m <= 0.0) {
         swathes[s] = {SceneSwathe::Build(kept_scene, camera, images, kept_scans, options.cost.swathe,

@@ -19,6 +19,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <vector>
@@ -82,6 +83,8 @@ struct AlternatingSettings {
   // Early stop once both levels move, and disagree, by less than these.
   double stop_translation_m = 2e-4;
   double stop_rotation_rad = RadiansFromDegrees(1e-3);
+  // AlternatingOptions::skip_settled: settled alternations end their stage (false: the paper's fixed schedule).
+  bool skip_settled = false;
   // 1-sigma of known camera transforms that rig.yaml gives no T_base_camera_sigma for.
   double default_camera_sigma_translation_m = 0.0005;
   double default_camera_sigma_rotation_rad = RadiansFromDegrees(0.0115);
@@ -239,10 +242,24 @@ struct CalibrationOutcome {
 // Progress messages (one line each) for the caller to log.
 using ProgressCallback = std::function<void(const std::string& message)>;
 
+// The prepared images (SwatheImages) of camera frames, by camera and image
+// time, so that the pairs of every lidar share one copy of a frame's images
+// and of its blur. Thread-safe; the swathes keep what they use after it is gone.
+class PreparedImageCache {
+ public:
+  SwatheImages Get(const std::string& camera, TimeUs image_t_us, const cv::Mat& intensity,
+                   const NormalisationOptions& normalisation);
+
+ private:
+  std::mutex mutex_;
+  std::map<std::pair<std::string, TimeUs>, SwatheImages> images_;
+};
+
 // Builds one pair's cost from the input's scenes of (camera, lidar).
-// Scenes whose image or scans are missing from the input are left out.
+// Scenes whose image or scans are missing from the input are left out. With
+// `images`, frames already prepared for another lidar's pair are reused.
 PairCost BuildPairCost(const CalibrationInput& input, const CameraInfo& camera, const std::string& lidar,
-                       const CalibrationOptions& options);
+                       const CalibrationOptions& options, PreparedImageCache* images = nullptr);
 
 // The coarse-to-fine schedule on any cost of a transform: for each stage,
 // prepare(stage, T) (blur the images, refresh visibility), then Nelder-Mead

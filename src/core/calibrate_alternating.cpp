@@ -137,6 +137,13 @@ AlternatingOptions AlternatingOptionsFor(const CalibrationOptions& options) {
   alternating.time_budget_s = options.time_budget_s;
   const int span = StageSpan(alternating);
   alternating.min_alternations = FirstAlternationOfLastStage(options.stages, span) + 1;
+  alternating.skip_settled = settings.skip_settled;
+  for (int i = 1; i < alternating.max_alternations; ++i) {
+    if (StageIndexForAlternation(options.stages.size(), i, span) !=
+        StageIndexForAlternation(options.stages.size(), i - 1, span)) {
+      alternating.stage_starts.push_back(i);
+    }
+  }
   alternating.lower_step_scale = StepScalesForAlternations(options.stages, alternating.max_alternations, span);
   // The paper's P^0 goes with its simplex. L-BFGS lower levels find the smooth
   // cost's own minimum, and there the paper's coupling already holds them back
@@ -252,6 +259,8 @@ std::uint64_t AlternatingSetup::Fingerprint(const CalibrationOptions& options,
   digest.Add(alternating.lower_gradient.function_tolerance);
   digest.Add(static_cast<std::uint64_t>(alternating.max_alternations));
   digest.Add(static_cast<std::uint64_t>(StageSpan(alternating)));
+  digest.Add(static_cast<std::uint64_t>(alternating.skip_settled));
+  digest.Add(alternating.settle_factor);
   digest.Add(alternating.covariance_shrink);
   digest.Add(static_cast<std::uint64_t>(alternating.penalty_frame));
   digest.Add(alternating.initial_sigma_translation_m);
@@ -330,6 +339,11 @@ CalibrationOutcome FinishAlternating(AlternatingSetup& setup, const AlternatingR
                                      " rad x the stage's step scale; penalty sigma)";
   }
   result.settings["alternations_max"] = std::to_string(alternating.max_alternations);
+  result.settings["alternation_schedule"] =
+      alternating.skip_settled
+          ? "adaptive (an alternation whose levels moved less than " + NumberText(alternating.settle_factor) +
+                " x the stop thresholds ends its stage; in the last stage the penalty then tightens two steps)"
+          : std::string("fixed (one penalty step and the stages' share per alternation, the paper)");
   result.settings["penalty_sigma0"] = NumberText(alternating.initial_sigma_translation_m) + " m, " +
                                       NumberText(alternating.initial_sigma_rotation_rad) + " rad";
   result.settings["penalty_shrink_w"] = NumberText(alternating.covariance_shrink);

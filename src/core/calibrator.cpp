@@ -132,12 +132,13 @@ void Calibrator::Say(const std::string& message) const {
 }
 
 void Calibrator::BuildPairs() {
+  PreparedImageCache images;  // a camera frame's images, once for every lidar's pair
   for (const LidarInfo& lidar : input_.rig.lidars) {
     LidarPairs built;
     built.lidar = &lidar;
     int scenes = 0;
     for (const CameraInfo& camera : input_.rig.cameras) {
-      built.pairs.push_back(std::make_unique<PairCost>(BuildPairCost(input_, camera, lidar.name, options_)));
+      built.pairs.push_back(std::make_unique<PairCost>(BuildPairCost(input_, camera, lidar.name, options_, &images)));
       scenes += built.pairs.back()->SceneCount();
     }
     if (scenes == 0) {

@@ -65,6 +65,7 @@ SceneSwathe SceneSwathe::Build(const Scene& scene, const CameraInfo& camera, con
   }
   swathe.image_sharp_ = images.sharp;
   swathe.image_plain_ = images.plain;
+  swathe.blur_cache_ = images.blur ? images.blur : std::make_shared<SwatheBlurCache>();
   swathe.image_ = swathe.image_sharp_;
   double min_value = 0.0, max_value = 0.0;
   cv::minMaxLoc(swathe.image_, &min_value, &max_value);
@@ -123,10 +124,17 @@ void SceneSwathe::SetImageBlur(double sigma_px) {
     image_ = image_sharp_;
     return;
   }
-  cv::Mat blurred;
-  const cv::Mat& whole = image_plain_.empty() ? image_sharp_ : image_plain_;
-  cv::GaussianBlur(whole, blurred, cv::Size(0, 0), sigma, sigma, cv::BORDER_REFLECT);
-  image_ = blurred;
+  // The frame's other swathes (range bands, other lidars' pairs) blur the same
+  // image by the same sigma: one copy, made once, shared read-only.
+  const std::lock_guard<std::mutex> lock(blur_cache_->mutex);
+  if (blur_cache_->blurred.empty() || blur_cache_->sigma_px != sigma) {
+    cv::Mat blurred;
+    const cv::Mat& whole = image_plain_.empty() ? image_sharp_ : image_plain_;
+    cv::GaussianBlur(whole, blurred, cv::Size(0, 0), sigma, sigma, cv::BORDER_REFLECT);
+    blur_cache_->blurred = blurred;
+    blur_cache_->sigma_px = sigma;
+  }
+  image_ = blur_cache_->blurred;
 }
 
 void SceneSwathe::ComposeScanPoses(const std::vector<Eigen::Isometry3d>& T_basek_basej) {

@@ -24,6 +24,8 @@
 #include <cstddef>
 #include <cstdint>
 #include <iterator>
+#include <memory>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -41,12 +43,22 @@
 
 namespace scenecal {
 
+// The blurred image of a camera frame, made by the first of the frame's swathes
+// that asks for a blur and shared by the others (range bands, the pairs of other
+// lidars): the stages move every swathe of a frame to the same blur together.
+struct SwatheBlurCache {
+  std::mutex mutex;
+  double sigma_px = 0.0;  // the blur of `blurred` (pixels, 1-sigma)
+  cv::Mat blurred;        // CV_32FC1; empty until a blur is asked for
+};
+
 // The images a swathe scores, prepared once per camera frame and shared (not
 // copied: swathes only read them) by the swathes built from that frame (range
-// bands, the trimming pass).
+// bands, the trimming pass, the pairs of every lidar through PreparedImageCache).
 struct SwatheImages {
   cv::Mat sharp;  // CV_32FC1, normalised (high-passed when asked): the final, unblurred stages' image
   cv::Mat plain;  // with a high-pass only: the normalised whole image the blurred stages start from
+  std::shared_ptr<SwatheBlurCache> blur = std::make_shared<SwatheBlurCache>();
 
   // From a frame's GreyImage intensity (CV_32FC1 in [0, 1]) with
   // normalisation.intensity (and its high-pass). Empty on an unusable image.
@@ -240,6 +252,7 @@ class SceneSwathe {
   cv::Mat image_sharp_;  // CV_32FC1, normalised, never blurred (high-passed when asked)
   cv::Mat image_plain_;  // with a high-pass only: the normalised image the blurred stages start from
   double blur_sigma_px_ = 0.0;  // the blur of image_ (pixels, 1-sigma; 0 = sharp)
+  std::shared_ptr<SwatheBlurCache> blur_cache_;  // the frame's, shared with its other swathes
   bool image_constant_ = false;
   bool reflectance_constant_ = false;
   // Image and reflectances finite and bounded (AddHardCounts' fast path needs it).
