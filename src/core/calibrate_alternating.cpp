@@ -39,6 +39,11 @@ const OptimisationStage& StageForAlternation(const std::vector<OptimisationStage
   return stages[StageIndexForAlternation(stages.size(), alternation, span)];
 }
 
+bool IsStageStart(std::size_t stage_count, int alternation, int span) {
+  return alternation == 0 || StageIndexForAlternation(stage_count, alternation - 1, span) !=
+                                 StageIndexForAlternation(stage_count, alternation, span);
+}
+
 int FirstAlternationOfLastStage(const std::vector<OptimisationStage>& stages, int span) {
   for (int i = 0; i < span; ++i) {
     if (StageIndexForAlternation(stages.size(), i, span) == stages.size() - 1) return i;
@@ -139,10 +144,7 @@ AlternatingOptions AlternatingOptionsFor(const CalibrationOptions& options) {
   alternating.min_alternations = FirstAlternationOfLastStage(options.stages, span) + 1;
   alternating.skip_settled = settings.skip_settled;
   for (int i = 1; i < alternating.max_alternations; ++i) {
-    if (StageIndexForAlternation(options.stages.size(), i, span) !=
-        StageIndexForAlternation(options.stages.size(), i - 1, span)) {
-      alternating.stage_starts.push_back(i);
-    }
+    if (IsStageStart(options.stages.size(), i, span)) alternating.stage_starts.push_back(i);
   }
   alternating.lower_step_scale = StepScalesForAlternations(options.stages, alternating.max_alternations, span);
   // The paper's P^0 goes with its simplex. L-BFGS lower levels find the smooth
@@ -186,9 +188,7 @@ LowerLevelBatchHook AlternatingSetup::BatchHook(const CalibrationOptions& option
     if (tasks.empty()) return;
     const int alternation = tasks.front().alternation;
     const std::size_t stage_index = StageIndexForAlternation(stages.size(), alternation, span);
-    const bool stage_starts =
-        alternation == 0 || StageIndexForAlternation(stages.size(), alternation - 1, span) != stage_index;
-    if (!stage_starts || stage_index < static_cast<std::size_t>(first_stage)) return;
+    if (!IsStageStart(stages.size(), alternation, span) || stage_index < static_cast<std::size_t>(first_stage)) return;
     const OptimisationStage& stage = stages[stage_index];
     // Every lidar's pairs together: the drift belongs to the trajectory, so the
     // lidars' swathes of one camera frame share its correction (and the drive's scale).

@@ -46,6 +46,9 @@ struct AlternatingSetup {
 // later ones stay in the last stage.
 std::size_t StageIndexForAlternation(std::size_t stage_count, int alternation, int span);
 const OptimisationStage& StageForAlternation(const std::vector<OptimisationStage>& stages, int alternation, int span);
+// True when alternation i is the first of its stage (the drift correction and
+// the adaptive schedule's jumps happen there).
+bool IsStageStart(std::size_t stage_count, int alternation, int span);
 // The first alternation of the last (sharpest) stage.
 int FirstAlternationOfLastStage(const std::vector<OptimisationStage>& stages, int span);
 // The span the stages are spread over: AlternatingOptions::stage_alternations
