@@ -1,19 +1,31 @@
 #!/usr/bin/env bash
 # Builds the scenecal command and the fast unit tests with AddressSanitizer (LeakSanitizer included)
-# and UndefinedBehaviorSanitizer into ./build-asan (-O1 -g) and runs those tests under them.
+# and UndefinedBehaviorSanitizer into ./build-asan (clang, -O1 -g) and runs those tests under them.
 # Any finding fails the run, also one in a scenecal process a test starts. The slow end-to-end
 # test executables (label `slow`, listed with their reasons in tests/CMakeLists.txt) are left out.
-# Extra arguments go to cmake.
+# The same folder builds the parsers' fuzz harnesses (scripts/test.sh runs their smoke from it), so
+# CI compiles once for both. Extra arguments go to cmake.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build=build-asan
 jobs=$(nproc 2>/dev/null || echo 2)
+compiler="$(command -v clang++-14 || command -v clang++ || true)"
+if [[ -z "$compiler" ]]; then
+  echo "sanitize.sh: clang++ not found (scripts/install_deps.sh installs it)" >&2
+  exit 1
+fi
+# A folder configured with another compiler (CMake keeps the first) is made again.
+if [[ -f "$build/CMakeCache.txt" ]] && ! grep -q "^CMAKE_CXX_COMPILER:[A-Z]*=$compiler\$" "$build/CMakeCache.txt"; then
+  echo "sanitize.sh: $build was configured with another compiler; configuring it again with $compiler" >&2
+  rm -rf "$build"
+fi
 # -O1 -g: fast enough under ASan (its documentation's advice) with exact lines in the reports;
-# NDEBUG as in the release build.
-cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1 -DNDEBUG" \
-  -DSCENECAL_SANITIZE=ON -DSCENECAL_WARNINGS_AS_ERRORS=ON -DSCENECAL_BUILD_TESTS=ON "$@" >/dev/null
+# NDEBUG as in the release build. Clang compiles the sanitized code in three quarters of GCC's time.
+cmake -S . -B "$build" -DCMAKE_CXX_COMPILER="$compiler" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+  -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1 -DNDEBUG" -DSCENECAL_SANITIZE=ON -DSCENECAL_BUILD_FUZZERS=ON \
+  -DSCENECAL_WARNINGS_AS_ERRORS=ON -DSCENECAL_BUILD_TESTS=ON "$@" >/dev/null
 # scenecal_fast_tests: the scenecal command and every test executable not labelled slow.
-cmake --build "$build" -j "$jobs" --target scenecal_fast_tests
+cmake --build "$build" -j "$jobs" --target scenecal_fast_tests fuzzers
 
 # Reports go to files, printed at the end, so that a finding in a scenecal process whose output a
 # test discards (or whose non-zero exit it expects) is not lost.

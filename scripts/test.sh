@@ -13,4 +13,4 @@ if [[ "${SCENECAL_TESTS:-all}" == "unit" ]]; then exit 0; fi
 echo "test.sh: the fast tests under AddressSanitizer and UndefinedBehaviorSanitizer" >&2
 scripts/sanitize.sh
 echo "test.sh: fuzz smoke of every parser" >&2
-scripts/fuzz.sh --smoke
+SCENECAL_FUZZ_BUILD_DIR="$PWD/build-asan" scripts/fuzz.sh --smoke

@@ -30,6 +30,7 @@
 #include "io/dataset.hpp"
 #include "io_test_support.hpp"
 #include "sim/simulator.hpp"
+#include "support/shared_simulation.hpp"
 #include "support/small_dataset.hpp"
 
 namespace scenecal {
@@ -47,11 +48,12 @@ class CalibrateOnSimulation : public ::testing::Test {
     root_ = fs::temp_directory_path() / ("scenecal_test_calibrate_" + std::to_string(::getpid()));
     fs::remove_all(root_);
     fs::create_directories(root_);
-    test::SimulateSmallRobotCar(root_ / "robotcar");
+    dataset_ = test::SharedSimulation("robotcar", [](const fs::path& folder) { test::SimulateSmallRobotCar(folder); });
   }
   static void TearDownTestSuite() { fs::remove_all(root_); }
 
-  static fs::path DatasetPath() { return root_ / "robotcar"; }
+  // Shared by the suite's processes: read only.
+  static fs::path DatasetPath() { return dataset_; }
 
   // A copy of the dataset under root_ / name whose rig.yaml is `edit` of the original's text.
   static fs::path CopyDatasetWithRig(const std::string& name, const std::function<std::string(std::string)>& edit) {
@@ -72,9 +74,11 @@ class CalibrateOnSimulation : public ::testing::Test {
   }
 
   static fs::path root_;
+  static fs::path dataset_;
 };
 
 fs::path CalibrateOnSimulation::root_;
+fs::path CalibrateOnSimulation::dataset_;
 
 // Expects cost(T) to rise above cost(at) when `at` moves by step_m along each
 // axis and by step_rad about each axis, both ways (left perturbation ExpSE3).

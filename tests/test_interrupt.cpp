@@ -26,6 +26,7 @@
 #include "core/nelder_mead.hpp"
 #include "io/staged_output.hpp"
 #include "io_test_support.hpp"
+#include "support/shared_simulation.hpp"
 #include "sim/simulator.hpp"
 
 extern char** environ;
@@ -122,16 +123,19 @@ class InterruptCli : public ::testing::Test {
     root_ = new fs::path(fs::temp_directory_path() / fmt::format("scenecal_interrupt_test_{}", ::getpid()));
     fs::remove_all(*root_);
     fs::create_directories(*root_);
-    sim::SimulationOptions options;
-    options.seed = 2;
-    options.distance_m = 90.0;
-    options.image_width = 320;
-    options.image_height = 240;
-    sim::Simulate(options, *root_ / "dataset");
+    dataset_ = new fs::path(test::SharedSimulation("dataset", [](const fs::path& folder) {
+      sim::SimulationOptions options;
+      options.seed = 2;
+      options.distance_m = 90.0;
+      options.image_width = 320;
+      options.image_height = 240;
+      sim::Simulate(options, folder);
+    }));
   }
   static void TearDownTestSuite() {
     fs::remove_all(*root_);
     delete root_;
+    delete dataset_;
   }
   // A fresh folder for one test's outputs: it must hold nothing else at the end.
   fs::path Folder(const std::string& name) {
@@ -139,7 +143,8 @@ class InterruptCli : public ::testing::Test {
     fs::create_directories(folder);
     return folder;
   }
-  static fs::path Dataset() { return *root_ / "dataset"; }
+  // Shared by the suite's processes: read only.
+  static fs::path Dataset() { return *dataset_; }
   static fs::path Root() { return *root_; }
 
   // The common checks: the exit code, the stop time (printed) and the log line.
@@ -156,8 +161,10 @@ class InterruptCli : public ::testing::Test {
   }
 
   static fs::path* root_;
+  static fs::path* dataset_;
 };
 fs::path* InterruptCli::root_ = nullptr;
+fs::path* InterruptCli::dataset_ = nullptr;
 
 TEST_F(InterruptCli, SimulateLeavesNoDataset) {
   const fs::path folder = Folder("simulate");

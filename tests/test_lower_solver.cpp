@@ -32,6 +32,8 @@
 #include "core/upper_level.hpp"
 #include "io/dataset.hpp"
 #include "sim/simulator.hpp"
+#include "support/shared_simulation.hpp"
+#include "support/small_dataset.hpp"
 
 namespace scenecal {
 namespace {
@@ -301,53 +303,27 @@ class LowerSolverOnSimulation : public ::testing::Test {
     root_ = fs::temp_directory_path() / ("scenecal_test_lower_solver_" + std::to_string(::getpid()));
     fs::remove_all(root_);
     fs::create_directories(root_);
-    sim::SimulationOptions options;
-    options.seed = 1;
-    options.distance_m = 90.0;
-    options.image_width = 480;
-    options.image_height = 360;
-    options.image_rate_hz = 1.0;
-    options.odometry_noise = 0.0;
-    options.perturb_translation_m = 0.05;
-    options.perturb_rotation_deg = 2.0;
-    sim::Simulate(options, root_ / "robotcar");
+    dataset_ = test::SharedSimulation("robotcar", [](const fs::path& folder) {
+      sim::SimulationOptions options = test::SmallSimulationOptions(1);
+      options.distance_m = 90.0;
+      sim::Simulate(options, folder);
+    });
   }
   static void TearDownTestSuite() { fs::remove_all(root_); }
 
-  static fs::path DatasetPath() { return root_ / "robotcar"; }
+  // Shared by the suite's processes: read only.
+  static fs::path DatasetPath() { return dataset_; }
 
   static CalibrationInput Load(const io::Dataset& dataset, const SceneOptions& scene_options) {
-    std::map<std::string, std::vector<TimeUs>> image_times, scan_times;
-    for (const auto& [camera, files] : dataset.images) {
-      for (const auto& file : files) image_times[camera].push_back(file.t_us);
-    }
-    for (const auto& [lidar, files] : dataset.scans) {
-      for (const auto& file : files) scan_times[lidar].push_back(file.t_us);
-    }
-    CalibrationInput input;
-    input.rig = dataset.rig;
-    input.selection = SelectScenes(dataset.rig, dataset.trajectory, image_times, scan_times, scene_options);
-    for (const Scene& scene : input.selection.scenes) {
-      for (const auto& file : dataset.images.at(scene.camera)) {
-        if (file.t_us == scene.image_t_us) {
-          input.images[scene.camera][file.t_us] = io::ReadImage(file, dataset.rig.FindCamera(scene.camera)->model);
-        }
-      }
-      std::set<TimeUs> needed;
-      for (const SwatheScan& scan : scene.scans) needed.insert(scan.t_us);
-      for (const auto& file : dataset.scans.at(scene.lidar)) {
-        if (needed.count(file.t_us) != 0 && input.scans[scene.lidar].count(file.t_us) == 0) {
-          input.scans[scene.lidar][file.t_us] = io::ReadScan(file);
-        }
-      }
-    }
-    return input;
+    return test::LoadCalibrationInput(dataset, scene_options);
   }
 
   static fs::path root_;
+  static fs::path dataset_;
 };
 
 fs::path LowerSolverOnSimulation::root_;
+fs::path LowerSolverOnSimulation::dataset_;
 
 // One lower-level problem (eq. 13) with a loose penalty, on the blurred images
 // of the first alternations: L-BFGS on the real pair objective (analytic

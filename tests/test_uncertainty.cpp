@@ -17,6 +17,7 @@
 #include "core/calibrate.hpp"
 #include "core/uncertainty.hpp"
 #include "io/dataset.hpp"
+#include "support/shared_simulation.hpp"
 #include "support/small_dataset.hpp"
 
 namespace scenecal {
@@ -30,13 +31,13 @@ class UncertaintyOnSimulation : public ::testing::Test {
     root_ = fs::temp_directory_path() / ("scenecal_test_uncertainty_" + std::to_string(::getpid()));
     fs::remove_all(root_);
     fs::create_directories(root_);
-    test::SimulateSmallRobotCar(root_ / "robotcar");
+    dataset_ = test::SharedSimulation("robotcar", [](const fs::path& folder) { test::SimulateSmallRobotCar(folder); });
   }
   static void TearDownTestSuite() { fs::remove_all(root_); }
 
   // The estimate at the truth from `scenes` scenes per camera.
   static LidarUncertainty AtTruth(int scenes, const UncertaintyOptions& uncertainty_options = {}) {
-    const io::Dataset dataset = io::OpenDataset(root_ / "robotcar");
+    const io::Dataset dataset = io::OpenDataset(dataset_);
     CalibrationOptions options;
     options.scenes.scenes_per_camera = scenes;
     options.cost.histogram.binning = Binning::kBSpline;
@@ -53,9 +54,11 @@ class UncertaintyOnSimulation : public ::testing::Test {
   }
 
   static fs::path root_;
+  static fs::path dataset_;
 };
 
 fs::path UncertaintyOnSimulation::root_;
+fs::path UncertaintyOnSimulation::dataset_;
 
 TEST_F(UncertaintyOnSimulation, FiniteSigmaAtTheTruth) {
   const LidarUncertainty estimate = AtTruth(24);
@@ -134,7 +137,7 @@ TEST_F(UncertaintyOnSimulation, TooFewScenesAreRefused) {
 
 TEST_F(UncertaintyOnSimulation, CliWritesTheEstimate) {
   const fs::path output = root_ / "result.yaml";
-  const std::string command = std::string(SCENECAL_CLI_PATH) + " calibrate " + (root_ / "robotcar").string() +
+  const std::string command = std::string(SCENECAL_CLI_PATH) + " calibrate " + dataset_.string() +
                               " --output " + output.string() +
                               " --setting paper --scheme joint --scenes 12 --stages 1 --max-iterations 30 > " +
                               (root_ / "out.txt").string() + " 2> " + (root_ / "log.txt").string();
@@ -151,7 +154,7 @@ TEST_F(UncertaintyOnSimulation, CliWritesTheEstimate) {
   EXPECT_FALSE(result["lidars"]["lms_rear"]["sigma"].IsDefined());
   EXPECT_EQ(result["settings"]["occlusion"].as<std::string>(), "zbuffer (cell width/80 px, margin 0.2 x depth + 0.3 m)");
   // And --no-uncertainty leaves it out (here with other z-buffer settings, recorded as given).
-  const std::string skip = std::string(SCENECAL_CLI_PATH) + " calibrate " + (root_ / "robotcar").string() +
+  const std::string skip = std::string(SCENECAL_CLI_PATH) + " calibrate " + dataset_.string() +
                            " --output " + output.string() +
                            " --setting paper --scheme joint --scenes 12 --stages 1 --max-iterations 30 --no-uncertainty"
                            " --occlusion-cell 12 --occlusion-margin 0.1 --occlusion-margin-abs 0.25"
