@@ -4,7 +4,7 @@
 # Any finding fails the run, also one in a scenecal process a test starts. The slow end-to-end
 # test executables (label `slow`, listed with their reasons in tests/CMakeLists.txt) are left out.
 # The same folder builds the parsers' fuzz harnesses (scripts/test.sh runs their smoke from it), so
-# CI compiles once for both. Extra arguments go to cmake.
+# CI configures and builds one folder for both. Extra arguments go to cmake.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build=build-asan

@@ -30,7 +30,6 @@
 #include "io/dataset.hpp"
 #include "io_test_support.hpp"
 #include "sim/simulator.hpp"
-#include "support/shared_simulation.hpp"
 #include "support/small_dataset.hpp"
 
 namespace scenecal {
@@ -48,7 +47,7 @@ class CalibrateOnSimulation : public ::testing::Test {
     root_ = fs::temp_directory_path() / ("scenecal_test_calibrate_" + std::to_string(::getpid()));
     fs::remove_all(root_);
     fs::create_directories(root_);
-    dataset_ = test::SharedSimulation("robotcar", [](const fs::path& folder) { test::SimulateSmallRobotCar(folder); });
+    dataset_ = test::SharedSmallRobotCar();
   }
   static void TearDownTestSuite() { fs::remove_all(root_); }
 

@@ -17,7 +17,6 @@
 #include "core/calibrate.hpp"
 #include "core/uncertainty.hpp"
 #include "io/dataset.hpp"
-#include "support/shared_simulation.hpp"
 #include "support/small_dataset.hpp"
 
 namespace scenecal {
@@ -31,7 +30,7 @@ class UncertaintyOnSimulation : public ::testing::Test {
     root_ = fs::temp_directory_path() / ("scenecal_test_uncertainty_" + std::to_string(::getpid()));
     fs::remove_all(root_);
     fs::create_directories(root_);
-    dataset_ = test::SharedSimulation("robotcar", [](const fs::path& folder) { test::SimulateSmallRobotCar(folder); });
+    dataset_ = test::SharedSmallRobotCar();
   }
   static void TearDownTestSuite() { fs::remove_all(root_); }
 

@@ -13,6 +13,7 @@
 #include "core/calibrate.hpp"
 #include "io/dataset.hpp"
 #include "sim/simulator.hpp"
+#include "shared_simulation.hpp"
 
 namespace scenecal::test {
 
@@ -31,6 +32,12 @@ inline sim::SimulationOptions SmallSimulationOptions(std::uint64_t seed) {
 
 inline void SimulateSmallRobotCar(const std::filesystem::path& root, std::uint64_t seed = 1) {
   sim::Simulate(SmallSimulationOptions(seed), root);
+}
+
+// The small RobotCar drive (seed 1), simulated once for all of a test executable's processes
+// (support/shared_simulation.hpp): read only.
+inline std::filesystem::path SharedSmallRobotCar() {
+  return SharedSimulation("robotcar", [](const std::filesystem::path& folder) { SimulateSmallRobotCar(folder); });
 }
 
 // The same drive with the trinocular rig: three cameras, rear and front push-broom lidars.
