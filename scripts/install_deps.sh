@@ -4,7 +4,7 @@
 set -euo pipefail
 
 packages=(
-  build-essential cmake ccache pkg-config
+  build-essential cmake ninja-build ccache pkg-config
   # lld: the linker CMakeLists.txt prefers (the test executables link in half the time).
   lld
   libeigen3-dev libceres-dev libopencv-dev libyaml-cpp-dev libcli11-dev

@@ -21,7 +21,9 @@ if [[ -f "$build/CMakeCache.txt" ]] && ! grep -q "^CMAKE_CXX_COMPILER:[A-Z]*=$co
 fi
 # -O1 -g: fast enough under ASan (its documentation's advice) with exact lines in the reports;
 # NDEBUG as in the release build. Clang compiles the sanitized code in three quarters of GCC's time.
-cmake -S . -B "$build" -DCMAKE_CXX_COMPILER="$compiler" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+generator=()
+if [[ ! -f "$build/CMakeCache.txt" ]] && command -v ninja >/dev/null; then generator=(-G Ninja); fi
+cmake -S . -B "$build" "${generator[@]}" -DCMAKE_CXX_COMPILER="$compiler" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1 -DNDEBUG" -DSCENECAL_SANITIZE=ON -DSCENECAL_BUILD_FUZZERS=ON \
   -DSCENECAL_WARNINGS_AS_ERRORS=ON -DSCENECAL_BUILD_TESTS=ON "$@" >/dev/null
 # scenecal_fast_tests: the scenecal command and every test executable not labelled slow.
