@@ -26,6 +26,7 @@
 #include <iterator>
 #include <memory>
 #include <mutex>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -235,6 +236,15 @@ class SceneSwathe {
   const SwatheMotionCorrection& MotionCorrection() const { return motion_correction_; }
 
   const cv::Mat& Image() const { return image_; }
+
+  // The stored points as the kernels read them, in their order (structure of
+  // arrays: lidar frame, metres; normalised reflectance; visibility mask): what
+  // a benchmark's read-only bound reads.
+  struct PointArrays {
+    std::span<const float> x, y, z, reflectance01;
+    std::span<const std::uint8_t> visible;
+  };
+  PointArrays Points() const { return {x_, y_, z_, reflectance01_, visible_}; }
 
  private:
   // The projection loop shared by the kernels: for each block of up to
