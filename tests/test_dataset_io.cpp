@@ -437,6 +437,22 @@ TEST(DatasetIo, YamlFilesMustBeUtf8) {
   for (const char* bad : {"\xc0\xaf", "\xed\xa0\x80", "\xf4\x90\x80\x80", "\xe2\x82"}) {  // overlong, surrogate, > U+10FFFF, cut
     EXPECT_THROW(io::ParseRig(std::string(kValidRig) + "  x: \"" + bad + "\"\n", "rig.yaml"), io::InputError) << bad;
   }
+  // yaml-cpp decodes the escapes \_ and \N to lone Latin-1 bytes, which would
+  // not survive being written back (found by fuzz_calibration_result): refused,
+  // in a value and in a settings key, naming the field.
+  const std::pair<const char*, const char*> escapes[] = {{"termination: \"a\\_b\"\n", "result.yaml: termination (line 4)"},
+                                                         {"warnings: [\"a\\Nb\"]\n", "result.yaml: warnings[0] (line 4)"},
+                                                         {"settings:\n  \"a\\_b\": x\n", "result.yaml: a key of settings (line 5)"}};
+  for (const auto& [bad, where] : escapes) {
+    try {
+      io::ParseCalibrationResult(std::string("format: scenecal-calibration/1\nlidars: {}\npairs: []\n") + bad,
+                                 "result.yaml");
+      ADD_FAILURE() << "accepted " << bad;
+    } catch (const io::InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(where), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("not UTF-8 (from an escape)"), std::string::npos) << e.what();
+    }
+  }
   // Well-formed UTF-8 (2, 3 and 4 bytes) is text like any other.
   const std::string good = "format: scenecal-calibration/1\nlidars: {}\npairs: []\nwarnings: [\"caf\xc3\xa9 \xe2\x82\xac \xf0\x9f\x99\x82\"]\n";
   EXPECT_EQ(io::ParseCalibrationResult(good, "result.yaml").warnings.at(0), "caf\xc3\xa9 \xe2\x82\xac \xf0\x9f\x99\x82");

@@ -202,7 +202,8 @@ CalibrationResult ParseCalibrationResult(const std::string& text, const std::str
   if (const YAML::Node settings = root["settings"]; settings.IsDefined() && !settings.IsNull()) {
     yaml.RequireMap(settings, "settings");
     for (const auto& entry : settings) {
-      result.settings[entry.first.Scalar()] = yaml.String(entry.second, "settings." + entry.first.Scalar());
+      const std::string key = yaml.String(entry.first, "a key of settings");
+      result.settings[key] = yaml.String(entry.second, "settings." + key);
     }
   }
   if (const YAML::Node timings = root["timings_s"]; timings.IsDefined() && !timings.IsNull()) {

@@ -187,6 +187,12 @@ void YamlReader::CheckFormat(const YAML::Node& root, const char* expected) const
 
 std::string YamlReader::String(const YAML::Node& node, const std::string& field) const {
   if (!node.IsScalar()) Fail(node, field, "found " + Describe(node), "a text value");
+  // The file is UTF-8 (checked on reading), but yaml-cpp decodes the escapes
+  // "\N" and "\_" to single Latin-1 bytes: such text would not survive being
+  // written back, so it is refused here rather than changed.
+  if (FirstInvalidUtf8(node.Scalar()) != std::string_view::npos) {
+    Fail(node, field, "text that is not UTF-8 (from an escape)", "UTF-8 text");
+  }
   return node.Scalar();
 }
 
