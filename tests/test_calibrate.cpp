@@ -509,9 +509,15 @@ TEST_F(CalibrateOnSimulation, CliAutoSettingChoosesFromTheRigAndTheData) {
   const std::string evidence = tested["settings"]["drift_test"].as<std::string>();
   EXPECT_NE(evidence.find("held-out cost change"), std::string::npos) << evidence;
   const bool drift_found = evidence.find(": drift found") != std::string::npos;
+  std::cout << "[ measured ] held-out drift test on the small exact drive: " << evidence << "\n";
   EXPECT_EQ(drift_found || evidence.find(": no drift found") != std::string::npos, true) << evidence;
   // The preset in force is the one the evidence points to, and the first solve's time is kept.
   EXPECT_EQ(tested["options"]["setting"].as<std::string>(), drift_found ? "push-broom-drifting" : "push-broom");
+  // The second solve starts where push-broom ended; the errors printed are still against the initial guess.
+  EXPECT_EQ(tested["settings"]["setting_chosen_by"].as<std::string>().find("started from the push-broom answer") !=
+                std::string::npos,
+            drift_found);
+  EXPECT_EQ(text.find("solving again from the push-broom answer") != std::string::npos, drift_found) << text;
   EXPECT_TRUE(tested["timings_s"]["push_broom_solve"]);
   EXPECT_EQ(tested["settings"]["trajectory_source"].as<std::string>(), "unknown");
   // A time budget spent by the first solve leaves no time for the test: its answer stands.
@@ -880,6 +886,42 @@ TEST_F(CalibrateOnSimulation, MotionCorrectionFindsADriftPutIntoTheSwathes) {
   std::cout << "[ measured ] drift correction: residual " << relative * 100.0 << " % of the drift put in over "
             << compared << " scenes; frame cost " << summary.cost_before << " -> " << summary.cost_after << "\n";
   EXPECT_LT(relative, 0.35);
+}
+
+// On a drive whose odometry drifts (the simulator's drift, exaggerated) and
+// whose trajectory_source is not given, --setting auto finds the drift and
+// solves push-broom-drifting again starting from the push-broom answer; the
+// errors printed are still those of rig.yaml's initial guess.
+TEST_F(CalibrateOnSimulation, CliAutoSettingSolvesADriftingDriveAgainFromThePushBroomAnswer) {
+  const fs::path drifting = root_ / "auto_drifting";
+  sim::SimulationOptions simulation = test::SmallSimulationOptions(1);
+  simulation.odometry_noise = 3.0;
+  sim::Simulate(simulation, drifting);
+  std::string rig = testing::ReadFile(drifting / "rig.yaml");
+  const std::size_t source = rig.find("trajectory_source:");
+  ASSERT_NE(source, std::string::npos) << rig;
+  rig.erase(source, rig.find('\n', source) + 1 - source);
+  testing::WriteFile(drifting / "rig.yaml", rig);
+
+  const fs::path output = root_ / "auto_drifting.yaml";
+  std::string text;
+  ASSERT_EQ(RunCli("calibrate " + drifting.string() + " --output " + output.string() +
+                       " --scenes 10 --lbfgs-iterations 3 --stages 1 --alternations 2 --no-uncertainty "
+                       "--no-basin-check",
+                   &text),
+            0)
+      << text;
+  const YAML::Node result = YAML::LoadFile(output.string());
+  const std::string evidence = result["settings"]["drift_test"].as<std::string>();
+  std::cout << "[ measured ] held-out drift test on the small drifting drive: " << evidence << "\n";
+  ASSERT_NE(evidence.find(": drift found"), std::string::npos) << evidence;
+  EXPECT_EQ(result["options"]["setting"].as<std::string>(), "push-broom-drifting");
+  EXPECT_NE(result["settings"]["setting_chosen_by"].as<std::string>().find("started from the push-broom answer"),
+            std::string::npos);
+  EXPECT_NE(text.find("solving again from the push-broom answer"), std::string::npos) << text;
+  // rig.yaml's guess is the truth moved by 5 cm and 2 deg (SmallSimulationOptions).
+  EXPECT_NE(text.find("lms_rear initial guess error: translation 0.0500 m, rotation 2.000 deg"), std::string::npos)
+      << text;
 }
 
 // The held-out drift test tells a drift that follows the drive (here the same

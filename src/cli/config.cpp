@@ -136,7 +136,7 @@ void AddConfigOptions(CLI::App* command, ConfigArguments* args, bool automatic) 
                    SettingHelp() + ". auto (the default) chooses from the data and says why: a 2D (push-broom) lidar on "
                                    "a drive gets push-broom, or push-broom-drifting when rig.yaml's trajectory_source "
                                    "is visual-odometry; when it is not given, a held-out test decides whether the "
-                                   "trajectory drifts within the swathes (a second solve when it does); 3D lidars and "
+                                   "trajectory drifts within the swathes (then a second solve, from the first's answer); 3D lidars and "
                                    "single frames get none (paper's defaults; single frames their own)")
       ->check(CLI::IsMember(names))
       ->capture_default_str();
