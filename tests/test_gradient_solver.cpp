@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdint>
 #include <random>
+#include <utility>
 
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
@@ -256,6 +257,52 @@ TEST(GradientSolver, LbfgsCrossesAFlatBowlFromItsFirstStep) {
   EXPECT_NEAR(summary.final_value, bowl(T), 1e-14);
   const Vector6d left = LogSE3(T * T_min.inverse()).cwiseQuotient(width);
   EXPECT_LT(left.cwiseAbs().maxCoeff(), 0.05) << left.transpose();
+}
+
+// --run-radius-*: a run whose minimum lies 1 m / 20 deg away stops at the wall
+// around its start (the wall's pull balances the bowl's within a millimetre);
+// without a radius the same run reaches the minimum.
+TEST(GradientSolver, RunRadiusKeepsARunNearItsStart) {
+  const Eigen::Isometry3d start = TransformFromTuple((Vector6d() << 0.1, 0.2, -0.3, 0.05, 0.1, -0.2).finished());
+  Vector6d away;
+  away << 0.6, -0.8, 0.0, 0.0, RadiansFromDegrees(20.0), 0.0;  // 1 m and 20 deg
+  const Eigen::Isometry3d T_min = ExpSE3(away) * start;
+  const auto bowl = [&](const Eigen::Isometry3d& T) { return 0.97 + 0.001 * LogSE3(T * T_min.inverse()).squaredNorm(); };
+  GradientSolverOptions options;
+  const CostWithGradient cost = [&](const Eigen::Isometry3d& T, Vector6d* gradient) {
+    if (gradient != nullptr) {
+      *gradient = CentralDifferenceGradient(bowl, T, options.transform_update, options.pivot_source,
+                                            Vector6d::Constant(1e-6));
+    }
+    return bowl(T);
+  };
+  const auto moved = [&](const Eigen::Isometry3d& T) {
+    return std::pair{(T.translation() - start.translation()).norm(),
+                     Eigen::AngleAxisd(T.linear() * start.linear().transpose()).angle()};
+  };
+
+  Eigen::Isometry3d free_end = start;
+  MinimiseWithGradient(cost, options, &free_end);
+  EXPECT_LT(LogSE3(free_end * T_min.inverse()).norm(), 1e-3);
+
+  options.run_radius_translation_m = 0.2;
+  options.run_radius_rotation_rad = RadiansFromDegrees(5.0);
+  Eigen::Isometry3d walled_end = start;
+  const GradientSolverSummary summary = MinimiseWithGradient(cost, options, &walled_end);
+  const auto [translation_m, rotation_rad] = moved(walled_end);
+  EXPECT_GT(translation_m, 0.19);  // it went as far as the wall lets it
+  EXPECT_LT(translation_m, 0.201);
+  EXPECT_GT(rotation_rad, RadiansFromDegrees(4.9));
+  EXPECT_LT(rotation_rad, RadiansFromDegrees(5.02));
+  EXPECT_TRUE(std::isfinite(summary.final_value));
+
+  options.run_radius_rotation_rad = std::nan("");
+  EXPECT_FALSE(options.IsValid());
+  options.run_radius_rotation_rad = RadiansFromDegrees(180.0);
+  EXPECT_FALSE(options.IsValid());
+  options.run_radius_rotation_rad = 0.0;
+  options.run_radius_translation_m = -0.1;
+  EXPECT_FALSE(options.IsValid());
 }
 
 }  // namespace

@@ -80,6 +80,7 @@ struct CalibrateArguments {
   MotionCorrectionArguments motion;
   std::string lower_solver = LowerSolverName(kCoreDefaults.lower_solver);
   int lbfgs_iterations = kCoreDefaults.gradient.max_iterations;
+  RunRadiusArguments run_radius;
   int threads = kCoreDefaults.threads;
   std::uint64_t seed = kCoreDefaults.seed;
   double time_budget_s = kCoreDefaults.time_budget_s;
@@ -146,6 +147,7 @@ int MakeCalibrationOptions(const CalibrateArguments& args, CalibrationOptions* o
   options->gradient.max_iterations = args.lbfgs_iterations;
   options->gradient.initial_step_translation_m = args.step_translation_m;
   options->gradient.initial_step_rotation_rad = RadiansFromDegrees(args.step_rotation_deg);
+  ApplyRunRadiusArguments(args.run_radius, options);
   if (!ParseStageSchedule(args.stages, &options->stages)) {
     spdlog::error("--stages: expected comma-separated SCALE[:BLUR[:RESTARTS]] entries, got '{}'", args.stages);
     return kExitInvalidInput;
@@ -582,6 +584,7 @@ void AddSolverOptions(CLI::App* command, CalibrateArguments* args) {
                       "and --step-rotation set its parameter scales")
       ->check(CLI::Range(1, 1000000))
       ->capture_default_str();
+  AddRunRadiusOptions(command, &args->run_radius);
   command->add_option("--threads", args->threads, "Worker threads; 0 = all hardware threads")
       ->check(kNonNegative)
       ->capture_default_str();

@@ -62,6 +62,7 @@ struct ExperimentArguments {
   int max_iterations = kCoreDefaults.nelder_mead.max_iterations;
   std::string lower_solver = LowerSolverName(kCoreDefaults.lower_solver);  // lbfgs: B-spline binning for every run
   std::string stages = StageScheduleText(kCoreDefaults.stages);
+  RunRadiusArguments run_radius;  // lbfgs: how far one run may move
   int overlay_scenes = 1;
   bool force = false;
   CostArguments cost;              // scenes, swathes, histogram, normalisation, occlusion (not the metric)
@@ -245,6 +246,7 @@ int MakeRunOptions(const ExperimentArguments& args, CalibrationOptions* options)
     options->gradient.initial_step_translation_m = options->nelder_mead.initial_step_translation_m;
     options->gradient.initial_step_rotation_rad = options->nelder_mead.initial_step_rotation_rad;
   }
+  ApplyRunRadiusArguments(args.run_radius, options);
   options->threads = args.threads;
   options->seed = args.seed;
   if (!ParseStageSchedule(args.stages, &options->stages)) {
@@ -699,6 +701,7 @@ CommandRunner AddExperimentCommand(CLI::App& app) {
   command->add_option("--stages", args->stages,
                       "Coarse-to-fine schedule, as calibrate's --stages (SCALE[:BLUR[:RESTARTS]],...)")
       ->capture_default_str();
+  AddRunRadiusOptions(command, &args->run_radius);
   command->add_option("--overlay-scenes", args->overlay_scenes,
                       "Scenes per camera/lidar pair shown as overlays (first guess, alt-nid when run); 0 = none")
       ->check(CLI::Range(0, 100))

@@ -293,4 +293,25 @@ void ApplyMotionCorrectionArguments(const MotionCorrectionArguments& args, Calib
       std::min(options->motion.initial_step_rate_rad_per_m, options->motion.max_rate_rad_per_m);
 }
 
+void AddRunRadiusOptions(CLI::App* command, RunRadiusArguments* args) {
+  command->add_option("--run-radius-translation", args->translation_m,
+                      "--lower-solver lbfgs: how far (metres) one run may move the estimate from where it started; "
+                      "beyond it a smooth wall adds to the cost. Far from the truth a blurred stage is nearly flat "
+                      "and its line search can step metres, to poses that project few points and score well; the "
+                      "wall keeps each run near its start while the schedule's runs together move further. 0 = no "
+                      "limit (--setting push-broom sets 0.3)")
+      ->check(kNonNegative)
+      ->capture_default_str();
+  command->add_option("--run-radius-rotation", args->rotation_deg,
+                      "--lower-solver lbfgs: the same for the rotation (degrees, below 180; 0 = no limit, "
+                      "--setting push-broom sets 6)")
+      ->check(kNonNegative)
+      ->capture_default_str();
+}
+
+void ApplyRunRadiusArguments(const RunRadiusArguments& args, CalibrationOptions* options) {
+  options->gradient.run_radius_translation_m = args.translation_m;
+  options->gradient.run_radius_rotation_rad = RadiansFromDegrees(args.rotation_deg);
+}
+
 }  // namespace scenecal::cli

@@ -73,6 +73,15 @@ void AddCostOptionsExceptMetric(CLI::App* command, CostArguments* args);
 void ApplyCostArguments(const CostArguments& args, CalibrationOptions* options);
 
 // The per-frame drift correction of `calibrate` (CalibrationOptions::motion_correction).
+// How far one L-BFGS run may move from its start (GradientSolverOptions' run
+// radii), for calibrate and experiment alike.
+struct RunRadiusArguments {
+  double translation_m = kCoreDefaults.gradient.run_radius_translation_m;
+  double rotation_deg = DegreesFromRadians(kCoreDefaults.gradient.run_radius_rotation_rad);
+};
+void AddRunRadiusOptions(CLI::App* command, RunRadiusArguments* args);
+void ApplyRunRadiusArguments(const RunRadiusArguments& args, CalibrationOptions* options);
+
 struct MotionCorrectionArguments {
   std::vector<std::string> terms;  // of turn, scale, roll, drive-scale; empty = off
   int first_stage = kCoreDefaults.motion_correction_first_stage;

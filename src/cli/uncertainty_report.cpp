@@ -109,10 +109,10 @@ YAML::Node ReportBasinCheck(Calibrator& calibrator, double offset_deg, Calibrati
   for (const LidarBasinCheck& check : checks) {
     YAML::Node entry(YAML::NodeType::Map);
     entry["method"] = fmt::format(
-        "joint cost minimised again (stages {} on of the schedule) from the answer turned +-{} deg about each base "
-        "axis through the lidar origin; agree = every run ends within {} cm and {} deg of the answer; costs with "
-        "sharp images and visibility at the answer",
-        check_options.first_stage + 1, offset_deg, 100.0 * check_options.agree_translation_m,
+        "joint cost minimised again (the last {} stage(s) of the schedule) from the answer turned +-{} deg about "
+        "each base axis through the lidar origin; agree = every run ends within {} cm and {} deg of the answer; "
+        "costs with sharp images and visibility at the answer",
+        check_options.last_stages, offset_deg, 100.0 * check_options.agree_translation_m,
         check_options.agree_rotation_rad * deg);
     entry["checked"] = check.checked;
     if (!check.checked) {

@@ -19,7 +19,7 @@ bool BasinCheckOptions::IsValid(std::string* why) const {
     return Invalid(why, "basin check: the translation agreement bound must be a positive number of metres");
   if (!(std::isfinite(agree_rotation_rad) && agree_rotation_rad > 0.0))
     return Invalid(why, "basin check: the rotation agreement bound must be a positive angle");
-  if (first_stage < 0) return Invalid(why, "basin check: the first stage index must be >= 0");
+  if (last_stages < 1) return Invalid(why, "basin check: it runs at least the last stage");
   return true;
 }
 
@@ -30,7 +30,8 @@ LidarBasinCheck CheckLidarBasin(const std::vector<PairCost*>& owned, const Lidar
   const auto say = [&](const std::string& message) {
     if (progress) progress(message);
   };
-  const int first = std::clamp(check_options.first_stage, 0, static_cast<int>(options.stages.size()) - 1);
+  const int count = static_cast<int>(options.stages.size());
+  const int first = count - std::clamp(check_options.last_stages, 1, count);
   const std::vector<OptimisationStage> stages(options.stages.begin() + first, options.stages.end());
   const OptimisationStage sharp{};  // no blur: the final stage's images
 

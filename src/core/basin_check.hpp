@@ -34,10 +34,11 @@ struct BasinCheckOptions {
   // The runs agree when each ends within both of these of the answer.
   double agree_translation_m = 0.01;
   double agree_rotation_rad = RadiansFromDegrees(0.1);
-  // The restarts run the calibration's stages from this index on (0-based,
-  // clamped to the last stage): by default the blurred middle stage and the
-  // sharp final one, whose steps cover the offset.
-  int first_stage = 2;
+  // The restarts run the last this many stages of the calibration's schedule
+  // (at least 1, at most all): by default the final (sharp) one, whose steps
+  // cover the offset. Counted from the end, so that stages prepended to widen
+  // the basin do not change the check.
+  int last_stages = 1;
 
   bool IsValid(std::string* why = nullptr) const;
 };

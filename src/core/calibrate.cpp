@@ -87,6 +87,12 @@ void RecordCommonSettings(const CalibrationOptions& options, CalibrationResult* 
                                " iterations a run, function tolerance " + NumberText(options.gradient.function_tolerance) +
                                "; one cost + gradient evaluation costs ~" + NumberText(kGradientEvaluationCost) +
                                " plain evaluations)";
+    const GradientSolverOptions& g = options.gradient;
+    settings["run_radius"] = g.run_radius_translation_m > 0.0 || g.run_radius_rotation_rad > 0.0
+                                 ? NumberText(g.run_radius_translation_m) + " m, " +
+                                       NumberText(DegreesFromRadians(g.run_radius_rotation_rad)) +
+                                       " deg from each run's start (0 = no limit)"
+                                 : std::string("no limit");
   } else {
     settings["lower_solver"] = "simplex (Nelder-Mead)";
   }

@@ -33,6 +33,9 @@ bool GradientSolverOptions::IsValid(std::string* why) const {
   if (!(initial_step_translation_m > 0.0) || !(initial_step_rotation_rad > 0.0))
     return Invalid(why, "initial steps must be > 0 (metres, radians)");
   if (!pivot_source.allFinite()) return Invalid(why, "pivot_source must be finite");
+  if (!(std::isfinite(run_radius_translation_m) && run_radius_translation_m >= 0.0) ||
+      !(std::isfinite(run_radius_rotation_rad) && run_radius_rotation_rad >= 0.0 && run_radius_rotation_rad < kPi))
+    return Invalid(why, "run radii must be >= 0 (metres) and in [0, 180) deg (0 = no limit)");
   return true;
 }
 
@@ -46,6 +49,36 @@ std::string GradientSolverSummary::BriefReport() const {
 }
 
 namespace {
+
+// ((distance - radius) / radius)^2 beyond each radius of the run's start (none when the radius is 0).
+double RunWall(const Eigen::Isometry3d& T_start, const Eigen::Isometry3d& T, const GradientSolverOptions& options) {
+  double wall = 0.0;
+  const auto add = [&](double distance, double radius) {
+    if (radius > 0.0 && distance > radius) wall += std::pow((distance - radius) / radius, 2);
+  };
+  add((T.translation() - T_start.translation()).norm(), options.run_radius_translation_m);
+  add(Eigen::AngleAxisd(T.linear() * T_start.linear().transpose()).angle(), options.run_radius_rotation_rad);
+  return wall;
+}
+
+// The cost plus the run's wall about T_start (the cost itself when no radius
+// is set). The wall's gradient by central differences: a few arithmetic
+// operations each, against a pass over the swathes.
+CostWithGradient WithRunWall(const CostWithGradient& cost, const GradientSolverOptions& options,
+                             const Eigen::Isometry3d& T_start) {
+  if (options.run_radius_translation_m <= 0.0 && options.run_radius_rotation_rad <= 0.0) return cost;
+  return [&cost, options, T_start](const Eigen::Isometry3d& T, Vector6d* gradient) {
+    double value = cost(T, gradient);
+    const double wall = RunWall(T_start, T, options);
+    if (!std::isfinite(value) || wall == 0.0) return value;
+    if (gradient != nullptr) {
+      *gradient += CentralDifferenceGradient(
+          [&](const Eigen::Isometry3d& X) { return RunWall(T_start, X, options); }, T, options.transform_update,
+          options.pivot_source, Vector6d::Constant(1e-6));
+    }
+    return value + wall;
+  };
+}
 
 // The state x (6) is the scaled local update from the start transform:
 // T(x) = ApplyTransformUpdate(T_0, scale .* x). Plus(x, d) applies a further
@@ -207,8 +240,9 @@ GradientSolverSummary MinimiseWithGradient(const CostWithGradient& cost, const G
   const TransformState state(*transform, options);
   EvaluationCounts counts;
   StopCallback stop_callback(&stop_requested);
+  const CostWithGradient walled = WithRunWall(cost, options, *transform);
   // The problem takes ownership of the function and the manifold.
-  auto* function = new TransformCost(&state, &cost, &counts);
+  auto* function = new TransformCost(&state, &walled, &counts);
   function->NormaliseAtStart();
   const double value_scale = function->ValueScale();
   ceres::GradientProblem problem(function, new TransformManifold(&state));

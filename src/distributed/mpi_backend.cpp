@@ -19,8 +19,8 @@ constexpr int kRoot = 0;
 constexpr double kCommandFinish = 0.0;
 constexpr double kCommandSolve = 1.0;
 // pair, alternation, 2 transforms, penalty, simplex options (7 + update + pivot),
-// lower solver (1) and L-BFGS options (6).
-constexpr int kTaskDoubles = 2 + 16 + 16 + 36 + 7 + 4 + 7;
+// lower solver (1), L-BFGS options (6) and its run radii (2).
+constexpr int kTaskDoubles = 2 + 16 + 16 + 36 + 7 + 4 + 7 + 2;
 // transform, cost, objective, summary (4 + termination), gradient evaluations.
 constexpr int kOutcomeDoubles = 16 + 2 + 4 + 1 + 1;
 
@@ -86,6 +86,8 @@ void EncodeTask(const LowerLevelTask& task, double* out) {
   const double gradient[6] = {static_cast<double>(g.max_iterations), g.function_tolerance, g.gradient_tolerance,
                               g.parameter_tolerance, g.initial_step_translation_m, g.initial_step_rotation_rad};
   std::memcpy(out + 82, gradient, sizeof(gradient));
+  out[88] = g.run_radius_translation_m;
+  out[89] = g.run_radius_rotation_rad;
 }
 
 LowerLevelTask DecodeTask(const double* in) {
@@ -113,6 +115,8 @@ LowerLevelTask DecodeTask(const double* in) {
   g.parameter_tolerance = in[85];
   g.initial_step_translation_m = in[86];
   g.initial_step_rotation_rad = in[87];
+  g.run_radius_translation_m = in[88];
+  g.run_radius_rotation_rad = in[89];
   // The update kind and pivot are the simplex options' (SolveLowerLevel uses those for both solvers).
   g.transform_update = o.transform_update;
   g.pivot_source = o.pivot_source;
