@@ -426,16 +426,30 @@ TEST_F(CalibrateOnSimulation, CliSettingFillsTheOptionsNotGivenAndRefusesARigWit
                       "--setting push-broom-drifting"),
             std::string::npos)
       << text;
-  // With alt, the stages spread over 20 of at most 40 alternations (cut short here by the time budget).
+  EXPECT_EQ(settings["run_radius"].as<std::string>(), "no limit");
+  // push-broom: joint, a blurred first stage, each L-BFGS run walled 30 cm / 6 deg about its start.
+  YAML::Node joint_result;
+  ASSERT_NO_FATAL_FAILURE(calibrate("setting_joint.yaml",
+                                    "--setting push-broom --scenes 4 --lbfgs-iterations 2 --no-uncertainty "
+                                    "--no-basin-check --time-budget 0.3",
+                                    &joint_result));
+  const YAML::Node joint_settings = joint_result["settings"];
+  EXPECT_EQ(joint_settings["setting"].as<std::string>(),
+            "push-broom: --swathe-length 30 --range-split 6 --thin 2 --lower-solver lbfgs --image-highpass 0.0234 "
+            "--refresh-border 3.75% --scheme joint --stages 1:0.02:1,1:0.004:2,0.3:0.0015:1,0.1:0:1 "
+            "--run-radius-translation 0.3 --run-radius-rotation 6 --alternations 40 --stage-alternations 20 "
+            "--alternation-schedule adaptive");
+  EXPECT_EQ(joint_settings["scheme"].as<std::string>(), "joint");
+  EXPECT_EQ(joint_settings["run_radius"].as<std::string>(), "0.3 m, 6 deg from each run's start (0 = no limit)");
+  EXPECT_EQ(joint_settings["stages"].as<std::string>().rfind("step x1 blur 0.02 restarts 1; ", 0), 0u)
+      << joint_settings["stages"].as<std::string>();
+  // With --scheme alt, the stages spread over 20 of at most 40 alternations (cut short here by the time budget).
   YAML::Node alt_result;
   ASSERT_NO_FATAL_FAILURE(calibrate("setting_alt.yaml",
-                                    "--setting push-broom --scenes 4 --lbfgs-iterations 2 --stages 1 "
+                                    "--setting push-broom --scheme alt --scenes 4 --lbfgs-iterations 2 --stages 1 "
                                     "--no-uncertainty --no-basin-check --time-budget 0.3",
                                     &alt_result));
   const YAML::Node alt_settings = alt_result["settings"];
-  EXPECT_EQ(alt_settings["setting"].as<std::string>(),
-            "push-broom: --swathe-length 30 --range-split 6 --thin 2 --lower-solver lbfgs --image-highpass 0.0234 "
-            "--refresh-border 3.75% --alternations 40 --stage-alternations 20 --alternation-schedule adaptive");
   EXPECT_EQ(alt_settings["alternations_max"].as<std::string>(), "40");
   EXPECT_EQ(alt_settings["alternation_schedule"].as<std::string>().rfind("adaptive (", 0), 0u);
   EXPECT_EQ(alt_settings["intensity_highpass"].as<std::string>(), "0.0234 of the image width");
