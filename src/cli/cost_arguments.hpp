@@ -72,7 +72,6 @@ void AddCostOptionsExceptMetric(CLI::App* command, CostArguments* args);
 // was given (its values crowd a narrow band of [0, 1]).
 void ApplyCostArguments(const CostArguments& args, CalibrationOptions* options);
 
-// The per-frame drift correction of `calibrate` (CalibrationOptions::motion_correction).
 // How far one L-BFGS run may move from its start (GradientSolverOptions' run
 // radii), for calibrate and experiment alike.
 struct RunRadiusArguments {
@@ -82,6 +81,7 @@ struct RunRadiusArguments {
 void AddRunRadiusOptions(CLI::App* command, RunRadiusArguments* args);
 void ApplyRunRadiusArguments(const RunRadiusArguments& args, CalibrationOptions* options);
 
+// The per-frame drift correction of `calibrate` (CalibrationOptions::motion_correction).
 struct MotionCorrectionArguments {
   std::vector<std::string> terms;  // of turn, scale, roll, drive-scale; empty = off
   int first_stage = kCoreDefaults.motion_correction_first_stage;
