@@ -1211,7 +1211,7 @@ TEST_F(CalibrateOnSimulation, BasinCheckRestartsAboutEachAxisAndComparesTheEnds)
   const CalibrationInput input = Load(dataset, options.scenes);
   // A result at the truth: the check needs only the answer.
   CalibrationResult result;
-  result.lidars.push_back({"lms_rear", dataset.ground_truth->T_base_lidar.at("lms_rear"), std::nullopt});
+  result.lidars.push_back({"lms_rear", dataset.ground_truth->T_base_lidar.at("lms_rear"), std::nullopt, std::nullopt});
   BasinCheckOptions check_options;
   std::string why;
   ASSERT_TRUE(check_options.IsValid(&why)) << why;

@@ -458,6 +458,56 @@ TEST(DatasetIo, YamlFilesMustBeUtf8) {
   EXPECT_EQ(io::ParseCalibrationResult(good, "result.yaml").warnings.at(0), "caf\xc3\xa9 \xe2\x82\xac \xf0\x9f\x99\x82");
 }
 
+// A settings or timings key with an escaped control character ("\r", found by
+// fuzz_calibration_result) is written quoted and escaped, so it reads back the same.
+TEST(DatasetIo, ResultKeysWithEscapesSurviveARoundTrip) {
+  const std::string text =
+      "format: scenecal-calibration/1\nlidars: {}\npairs: []\nsettings:\n  \"sch\\rm1Neme\": alt\n"
+      "timings_s:\n  \"lo\\tad\": 1.5\n";
+  const CalibrationResult result = io::ParseCalibrationResult(text, "result.yaml");
+  ASSERT_EQ(result.settings.count("sch\rm1Neme"), 1u);
+  const CalibrationResult again = io::ParseCalibrationResult(io::CalibrationResultToYaml(result), "again.yaml");
+  EXPECT_EQ(again.settings, result.settings);
+  EXPECT_EQ(again.timings_s.count("lo\tad"), 1u);
+}
+
+// FORMAT.md's covariance: written as 6 rows of 6 and read back exactly; a
+// matrix that is not 6x6, not symmetric or has a negative variance is refused
+// with its field.
+TEST(DatasetIo, ResultCovarianceRoundTripsAndBadOnesAreRefused) {
+  CalibrationResult result;
+  LidarCalibration lidar;
+  lidar.lidar = "rear";
+  Matrix6d covariance = Matrix6d::Identity() * 1e-4;
+  covariance(0, 4) = covariance(4, 0) = 3.25e-6;
+  lidar.sigma = covariance.diagonal().cwiseSqrt();
+  lidar.covariance = covariance;
+  result.lidars.push_back(lidar);
+  const CalibrationResult again = io::ParseCalibrationResult(io::CalibrationResultToYaml(result), "result.yaml");
+  ASSERT_TRUE(again.lidars.at(0).covariance.has_value());
+  EXPECT_EQ(*again.lidars.at(0).covariance, covariance);
+  const std::string head = "format: scenecal-calibration/1\npairs: []\nlidars:\n  rear:\n    T_base_lidar: [0, 0, 0, 0, 0, 0]\n"
+                           "    covariance: ";
+  const std::string row = "[1, 0, 0, 0, 0, 0]";
+  const std::vector<std::pair<std::string, std::string>> bad = {
+      {"[" + row + "]", "lidars.rear.covariance"},
+      {"[[1, 2, 0, 0, 0, 0], [0, 1, 0, 0, 0, 0], [0, 0, 1, 0, 0, 0], [0, 0, 0, 1, 0, 0], [0, 0, 0, 0, 1, 0], "
+       "[0, 0, 0, 0, 0, 1]]",
+       "lidars.rear.covariance[1][0]"},
+      {"[[-1, 0, 0, 0, 0, 0], [0, 1, 0, 0, 0, 0], [0, 0, 1, 0, 0, 0], [0, 0, 0, 1, 0, 0], [0, 0, 0, 0, 1, 0], "
+       "[0, 0, 0, 0, 0, 1]]",
+       "lidars.rear.covariance[0][0]"},
+  };
+  for (const auto& [matrix, field] : bad) {
+    try {
+      io::ParseCalibrationResult(head + matrix + "\n", "result.yaml");
+      ADD_FAILURE() << "accepted " << matrix;
+    } catch (const io::InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
+    }
+  }
+}
+
 // Option files: values and lists in the file's order, a preset's own keys, a
 // result's options block; what is not an option file is refused with its line.
 TEST(DatasetIo, OptionFilesReadValuesListsAndAResultsOptionsBlock) {

@@ -549,7 +549,7 @@ TEST(HtmlReport, MakeCalibrationReportDataDerivesPairTruthFromTheRig) {
   outcome.result.termination = "converged";
   outcome.result.warnings = {"w"};
   outcome.result.settings = {{"scheme", "joint"}, {"metric", "mi"}};
-  outcome.result.lidars.push_back({"rear", truth.T_base_lidar["rear"], std::nullopt});
+  outcome.result.lidars.push_back({"rear", truth.T_base_lidar["rear"], std::nullopt, std::nullopt});
   outcome.result.pairs.push_back({"right", "rear", right.T_camera_base() * truth.T_base_lidar["rear"], 0.8});
   PairReport report;
   report.camera = "right";

@@ -15,6 +15,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include "core/calibrate.hpp"
+#include "core/nelder_mead.hpp"
 #include "core/uncertainty.hpp"
 #include "io/dataset.hpp"
 #include "support/small_dataset.hpp"
@@ -94,10 +95,12 @@ TEST_F(UncertaintyOnSimulation, FiniteSigmaAtTheTruth) {
 }
 
 TEST_F(UncertaintyOnSimulation, FewerScenesGiveALargerSigma) {
-  // sigma ~ 1 / sqrt(scenes): 8 instead of 21 scenes (all a 120 m drive
-  // offers) should widen each direction by about sqrt(21 / 8) = 1.6. A sigma
-  // estimated from 8 scenes is itself uncertain (~25 % per direction), so the
-  // test takes the median ratio over the six directions (measured: 1.37).
+  // 8 instead of 21 scenes (all a 120 m drive offers) widen each direction,
+  // but by less than sqrt(21 / 8) = 1.6: the 21 scenes lie closer than their
+  // swathes are long and share points, and the long-run variance counts their
+  // correlation (measured: 1.14; 1.37 when the scenes were taken as
+  // independent). A sigma estimated from 8 scenes is itself uncertain (~25 %
+  // per direction), so the test takes the median ratio over the six directions.
   const LidarUncertainty many = AtTruth(24);
   const LidarUncertainty few = AtTruth(8);
   ASSERT_TRUE(many.estimated) << many.why;
@@ -111,7 +114,7 @@ TEST_F(UncertaintyOnSimulation, FewerScenesGiveALargerSigma) {
   }
   std::sort(ratios.begin(), ratios.end());
   const double median = 0.5 * (ratios[2] + ratios[3]);
-  EXPECT_GT(median, 1.2);
+  EXPECT_GT(median, 1.05);
   EXPECT_LT(median, 2.6);
 }
 
@@ -147,10 +150,25 @@ TEST_F(UncertaintyOnSimulation, CliWritesTheEstimate) {
   EXPECT_TRUE(entry["estimated"].as<bool>());
   EXPECT_EQ(entry["scenes"].as<int>(), 12);
   EXPECT_EQ(entry["directions"].size(), 6u);
-  // The local sigma is there exactly when every direction is determined, and
-  // never as FORMAT.md's `sigma` (it is not the calibration's uncertainty).
+  // The local sigma is there exactly when every direction is determined.
   EXPECT_EQ(entry["local_sigma_tuple"].IsDefined(), entry["determined"].as<bool>());
-  EXPECT_FALSE(result["lidars"]["lms_rear"]["sigma"].IsDefined());
+  // FORMAT.md's sigma and covariance of the result: local + the basin check's restarts, so at least the local
+  // sigma on every axis; a verdict, and the error against the truth in sigmas on stdout.
+  const YAML::Node lidar = result["lidars"]["lms_rear"];
+  ASSERT_TRUE(lidar["sigma"].IsSequence());
+  ASSERT_EQ(lidar["covariance"].size(), 6u);
+  for (int k = 0; k < 6; ++k) {
+    EXPECT_NEAR(lidar["covariance"][k][k].as<double>(), std::pow(lidar["sigma"][k].as<double>(), 2), 1e-15);
+    if (entry["determined"].as<bool>()) {
+      EXPECT_GE(lidar["sigma"][k].as<double>(), entry["local_sigma_tuple"][k].as<double>() * (1.0 - 1e-9));
+    }
+  }
+  const std::string verdict = entry["verdict"].as<std::string>();
+  EXPECT_TRUE(verdict == "good" || verdict == "weak" || verdict == "unreliable") << verdict;
+  EXPECT_EQ(verdict != "good", entry["verdict_reason"].IsDefined());
+  std::ifstream printed(root_ / "out.txt");
+  const std::string out((std::istreambuf_iterator<char>(printed)), std::istreambuf_iterator<char>());
+  EXPECT_NE(out.find("lidar lms_rear T_base_lidar error in sigmas: Mahalanobis"), std::string::npos) << out;
   EXPECT_EQ(result["settings"]["occlusion"].as<std::string>(), "zbuffer (cell width/80 px, margin 0.2 x depth + 0.3 m)");
   // And --no-uncertainty leaves it out (here with other z-buffer settings, recorded as given).
   const std::string skip = std::string(SCENECAL_CLI_PATH) + " calibrate " + dataset_.string() +
@@ -161,11 +179,77 @@ TEST_F(UncertaintyOnSimulation, CliWritesTheEstimate) {
   ASSERT_EQ(std::system(skip.c_str()), 0);
   const YAML::Node skipped = YAML::LoadFile(output.string());
   EXPECT_FALSE(skipped["uncertainty"].IsDefined());
+  EXPECT_FALSE(skipped["lidars"]["lms_rear"]["sigma"].IsDefined());
   EXPECT_EQ(skipped["settings"]["occlusion"].as<std::string>(), "zbuffer (cell 12 px, margin 0.1 x depth + 0.25 m)");
   EXPECT_EQ(skipped["settings"]["refresh_border_px"].as<double>(), 16.0);
   EXPECT_EQ(result["settings"]["refresh_border_px"].as<double>(), 0.0);
   EXPECT_EQ(skipped["settings"]["lidar_range_m"].as<std::string>(), "2 .. 40");
   EXPECT_EQ(result["settings"]["lidar_range_m"].as<std::string>(), "1 .. 100");
+}
+
+// The error estimate: local + the basin restarts' second moment + other
+// answers' offsets, mapped to the tuple; the verdict from 2 sigma against
+// 1 cm / 0.2 deg, `unreliable` for a flat direction or a drifting trajectory.
+TEST(ErrorEstimate, SumsItsPartsAndJudges) {
+  const UncertaintyOptions units;
+  const Eigen::Isometry3d answer = TransformFromTuple((Vector6d() << 1.0, 0.2, 0.5, 0.0, 0.1, 0.3).finished());
+  LidarUncertainty local;
+  local.estimated = local.determined = true;
+  for (int k = 0; k < 6; ++k) {
+    UncertainDirection direction;
+    direction.direction = Vector6d::Unit(k) * (k < 3 ? units.unit_translation_m : units.unit_rotation_rad);
+    direction.determined = true;
+    direction.sigma_units = 0.1;  // 1 mm, 0.01 deg
+    local.directions.push_back(direction);
+  }
+  LidarErrorEstimate estimate = EstimateLidarError(answer, local, nullptr, {}, false, units);
+  ASSERT_TRUE(estimate.estimated);
+  EXPECT_NEAR(estimate.covariance_d(0, 0), 1e-6, 1e-12);
+  EXPECT_NEAR(estimate.sigma_tuple[0], 1e-3, 1e-9);  // translation maps one to one
+  EXPECT_EQ(estimate.verdict, Verdict::kGood);
+  EXPECT_DOUBLE_EQ(estimate.share_local, 1.0);
+
+  // Two basin restarts ending 2 cm either side along y: their second moment adds (2 cm)^2.
+  LidarBasinCheck basin;
+  basin.checked = true;
+  for (const double sign : {-1.0, 1.0}) {
+    BasinRestart restart;
+    restart.T_base_lidar_end = ApplyTransformUpdate(answer, Vector6d::Unit(1) * 0.02 * sign,
+                                                    TransformUpdate::kAboutSourcePoint);
+    basin.restarts.push_back(restart);
+  }
+  estimate = EstimateLidarError(answer, local, &basin, {}, false, units);
+  EXPECT_NEAR(estimate.covariance_d(1, 1), 1e-6 + 4e-4, 1e-10);
+  EXPECT_EQ(estimate.verdict, Verdict::kWeak);  // 2 sigma = 4 cm along y
+  EXPECT_NE(estimate.verdict_reason.find("dy +2.00"), std::string::npos) << estimate.verdict_reason;
+
+  // Another answer 0.5 deg away under another trajectory model, with drift.
+  const Eigen::Isometry3d other =
+      ApplyTransformUpdate(answer, Vector6d::Unit(4) * RadiansFromDegrees(0.5), TransformUpdate::kAboutSourcePoint);
+  estimate = EstimateLidarError(answer, local, nullptr, {other}, true, units);
+  // 0.5 deg = 5 units: along it (0.5 deg)^2 and 25/6 units^2 spread over every direction.
+  const double unit_r = units.unit_rotation_rad, unit_t = units.unit_translation_m;
+  EXPECT_NEAR(estimate.covariance_d(4, 4),
+              std::pow(RadiansFromDegrees(0.01), 2) + std::pow(RadiansFromDegrees(0.5), 2) + 25.0 / 6.0 * unit_r * unit_r,
+              1e-12);
+  EXPECT_NEAR(estimate.covariance_d(0, 0), 1e-6 + 25.0 / 6.0 * unit_t * unit_t, 1e-12);
+  EXPECT_EQ(estimate.verdict, Verdict::kUnreliable);
+  EXPECT_GT(estimate.share_trajectory, 0.99);
+  // The other answer lies within 1 sigma along its own direction.
+  EXPECT_LT(std::sqrt(TupleMahalanobisSquared(other, answer, estimate.covariance_tuple)), 1.0);
+  // A drifting trajectory whose model's effect was not measured is never `good`.
+  estimate = EstimateLidarError(answer, local, nullptr, {}, true, units);
+  EXPECT_EQ(estimate.verdict, Verdict::kUnreliable);
+  EXPECT_NE(estimate.verdict_reason.find("not measured"), std::string::npos) << estimate.verdict_reason;
+
+  // A flat direction: unreliable, with a sigma of half the search range.
+  local.directions[2].determined = false;
+  local.directions[2].flat_units = 16.0;
+  estimate = EstimateLidarError(answer, local, nullptr, {}, false, units);
+  EXPECT_EQ(estimate.verdict, Verdict::kUnreliable);
+  EXPECT_NEAR(estimate.sigma_tuple[2], 0.08, 1e-9);
+  LidarUncertainty none;
+  EXPECT_FALSE(EstimateLidarError(answer, none, nullptr, {}, false, units).estimated);
 }
 
 }  // namespace

@@ -333,12 +333,18 @@ void RecordCommandSettings(const CalibrateArguments& args, const std::string& si
 // The uncertainty estimate and the basin check of the answer (into *result
 // and *extra), unless --no-uncertainty / --no-basin-check or the time budget
 // is spent: it counts from the command's `start`.
+// other_answers: auto's push-broom answer per lidar when the drift model then
+// replaced it (its offset enters the sigma).
 void CheckAnswer(const CalibrateArguments& args, const CalibrationOptions& options, Calibrator& calibrator,
-                 std::chrono::steady_clock::time_point start, CalibrationResult* result, YAML::Node* extra) {
+                 std::chrono::steady_clock::time_point start,
+                 const std::map<std::string, Eigen::Isometry3d>& other_answers, CalibrationResult* result,
+                 YAML::Node* extra) {
   const auto budget_spent = [&] {
     const double elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return args.time_budget_s > 0.0 && elapsed_s >= args.time_budget_s;
   };
+  std::vector<LidarUncertainty> local_estimates;
+  std::vector<LidarBasinCheck> basin_checks;
   if (!args.no_uncertainty && budget_spent()) {
     spdlog::warn("no uncertainty estimate: the time budget ({} s) is spent", args.time_budget_s);
     result->settings["uncertainty"] = "skipped: time budget spent";
@@ -347,7 +353,7 @@ void CheckAnswer(const CalibrateArguments& args, const CalibrationOptions& optio
       spdlog::info("uncertainty: the frames' drift corrections are held as estimated at the answer; their own "
                    "freedom is not in it (with --motion-correction the error can be several times larger)");
     }
-    (*extra)["uncertainty"] = ReportUncertainty(calibrator, result);
+    (*extra)["uncertainty"] = ReportUncertainty(calibrator, result, &local_estimates);
   }
   if (!args.no_basin_check) {
     if (budget_spent()) {
@@ -355,8 +361,13 @@ void CheckAnswer(const CalibrateArguments& args, const CalibrationOptions& optio
       spdlog::warn("no basin check: the time budget ({} s) is spent", args.time_budget_s);
       result->settings["basin_check"] = "skipped: time budget spent";
     } else {
-      (*extra)["basin_check"] = ReportBasinCheck(calibrator, args.basin_offset_deg, result);
+      (*extra)["basin_check"] = ReportBasinCheck(calibrator, args.basin_offset_deg, result, &basin_checks);
     }
+  }
+  if (!local_estimates.empty()) {
+    YAML::Node uncertainty = (*extra)["uncertainty"];
+    ReportErrorEstimate(local_estimates, basin_checks, other_answers, options.motion_correction, result,
+                        &uncertainty);
   }
 }
 
@@ -370,6 +381,12 @@ void PrintErrorsAgainstTruth(const io::Dataset& dataset, const Rig& rig, const C
     if (gt == truth.T_base_lidar.end()) continue;
     const LidarInfo* initial = rig.FindLidar(lidar.lidar);
     fmt::print("lidar {} T_base_lidar error: {}\n", lidar.lidar, ErrorLine(lidar.T_base_lidar, gt->second));
+    if (lidar.covariance) {
+      // 6 degrees of freedom: 95 % of errors within 3.55 when the covariance is right.
+      fmt::print("lidar {} T_base_lidar error in sigmas: Mahalanobis {:.2f} (within the 95 % ellipsoid below 3.55)\n",
+                 lidar.lidar,
+                 std::sqrt(TupleMahalanobisSquared(lidar.T_base_lidar, gt->second, *lidar.covariance)));
+    }
     if (initial != nullptr) {
       fmt::print("lidar {} initial guess error: {}\n", lidar.lidar, ErrorLine(initial->T_base_lidar, gt->second));
     }
@@ -449,9 +466,11 @@ AutomaticChoice ChooseAutomatically(CalibrateArguments* args, const io::Dataset&
 // push-broom-drifting solves again, all its stages, starting from the
 // push-broom answer (closer than the initial guess: fewer alternations, the
 // same or smaller errors on the simulated drives; BENCHMARK.md, "The no-flag
-// default against the presets"). *evidence: the test's figures, for the result.
+// default against the presets"). *evidence: the test's figures, for the result;
+// *replaced_answers: the push-broom answer per lidar when the drift model replaced it.
 int DecideOnDrift(CalibrateArguments* args, const io::Dataset& dataset, ProcessGroup& group,
-                  std::unique_ptr<DatasetSolve>* solve, double spent_s, std::string* evidence) {
+                  std::unique_ptr<DatasetSolve>* solve, double spent_s, std::string* evidence,
+                  std::map<std::string, Eigen::Isometry3d>* replaced_answers) {
   if (args->time_budget_s > 0.0 && spent_s >= args->time_budget_s) {
     spdlog::warn("no held-out drift test: the time budget ({} s) is spent; the push-broom answer stands",
                  args->time_budget_s);
@@ -478,6 +497,7 @@ int DecideOnDrift(CalibrateArguments* args, const io::Dataset& dataset, ProcessG
   for (const LidarCalibration& lidar : (*solve)->outcome->result.lidars) {
     push_broom_answer[lidar.lidar] = lidar.T_base_lidar;
   }
+  *replaced_answers = push_broom_answer;
   solve->reset();  // the first solve's scenes go before the second's are loaded
   *solve = std::make_unique<DatasetSolve>();
   const double tested_s = spent_s + std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -504,9 +524,11 @@ int RunCalibration(CalibrateArguments& args, ProcessGroup& group) {
   }
   const Rig initial_guesses = solve->input.rig;  // a second solve starts elsewhere
   std::string drift_evidence;
+  std::map<std::string, Eigen::Isometry3d> replaced_answers;  // the push-broom answers the drift model replaced
   if (choice.test_drift) {
     const double first_solve_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    if (const int exit_code = DecideOnDrift(&args, dataset, group, &solve, first_solve_s, &drift_evidence);
+    if (const int exit_code = DecideOnDrift(&args, dataset, group, &solve, first_solve_s, &drift_evidence,
+                                              &replaced_answers);
         exit_code != kExitSuccess) {
       return exit_code;
     }
@@ -522,7 +544,7 @@ int RunCalibration(CalibrateArguments& args, ProcessGroup& group) {
   if (!drift_evidence.empty()) result.settings["drift_test"] = drift_evidence;
   result.settings["trajectory_source"] = TrajectorySourceName(dataset.rig.trajectory_source);
   YAML::Node extra(YAML::NodeType::Map);
-  CheckAnswer(args, solve->options, calibrator, start, &result, &extra);
+  CheckAnswer(args, solve->options, calibrator, start, replaced_answers, &result, &extra);
   result.timings_s["total"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   for (const std::string& warning : result.warnings) spdlog::warn("{}", warning);
   // Each frame's drift correction: what the odometry did over its swathe, as the images saw it.
@@ -653,9 +675,10 @@ void AddStartOptions(CLI::App* command, CalibrateArguments* args) {
 void AddAfterCalibrationOptions(CLI::App* command, CalibrateArguments* args) {
   command->add_flag("--no-uncertainty", args->no_uncertainty,
                     "Skip the uncertainty estimate after the calibration (by default each lidar gets a local "
-                    "1-sigma per parameter, or a warning naming the directions the data do not determine; ~130 "
-                    "cost evaluations: seconds for push-broom swathes, minutes for dense 3D sweeps; skipped when "
-                    "--time-budget is spent by then)");
+                    "1-sigma per parameter, or a warning naming the directions the data do not determine; with the "
+                    "basin check's restarts it becomes the result's sigma and covariance and a verdict: good, weak "
+                    "along a named direction, or unreliable; ~130 cost evaluations: seconds for push-broom "
+                    "swathes, minutes for dense 3D sweeps; skipped when --time-budget is spent by then)");
   command->add_flag("--no-basin-check", args->no_basin_check,
                     "Skip the basin check after the calibration (by default the joint cost is minimised again from "
                     "the answer turned +-1 deg about each base axis, and a warning says when those runs end apart: "

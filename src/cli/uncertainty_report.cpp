@@ -22,15 +22,16 @@ YAML::Node Numbers(const double* values, int count) {
 
 }  // namespace
 
-YAML::Node ReportUncertainty(Calibrator& calibrator, CalibrationResult* result) {
+YAML::Node ReportUncertainty(Calibrator& calibrator, CalibrationResult* result,
+                             std::vector<LidarUncertainty>* estimates_out) {
   const auto start = std::chrono::steady_clock::now();
   const UncertaintyOptions uncertainty_options;
   spdlog::info("estimating the uncertainty of the result (B-spline metric; paired scene-by-scene cost changes along "
                "the Hessian's directions, up to {:.0f} cm / {:.1f} deg)",
                100.0 * uncertainty_options.max_search_units * uncertainty_options.unit_translation_m,
                uncertainty_options.max_search_units * uncertainty_options.unit_rotation_rad * 180.0 / M_PI);
-  const std::vector<LidarUncertainty> estimates =
-      calibrator.EstimateUncertainty(*result, uncertainty_options);
+  *estimates_out = calibrator.EstimateUncertainty(*result, uncertainty_options);
+  const std::vector<LidarUncertainty>& estimates = *estimates_out;
   YAML::Node node(YAML::NodeType::Map);
   const double deg = 180.0 / M_PI;
   for (std::size_t i = 0; i < estimates.size(); ++i) {
@@ -67,9 +68,7 @@ YAML::Node ReportUncertainty(Calibrator& calibrator, CalibrationResult* result) 
     entry["directions"] = directions;
     if (estimate.determined) {
       // Not FORMAT.md's `sigma`: this is the spread within the basin the
-      // optimiser ended in. On weakly constrained data repeated runs from other
-      // starts land in other basins much further apart (docs/findings.md), so
-      // downstream tools must not read it as the calibration's uncertainty.
+      // optimiser ended in; ReportErrorEstimate adds what it misses.
       entry["local_sigma_tuple"] = Numbers(estimate.sigma_tuple.data(), 6);
       entry["local_covariance_d"] = Numbers(estimate.covariance.data(), 36);  // symmetric
       const UncertainDirection& weakest = *std::max_element(
@@ -78,7 +77,7 @@ YAML::Node ReportUncertainty(Calibrator& calibrator, CalibrationResult* result) 
       const Vector6d& s = estimate.sigma_tuple;
       spdlog::info("lidar {}: local 1-sigma x {:.2f} y {:.2f} z {:.2f} cm, roll {:.3f} pitch {:.3f} yaw {:.3f} deg "
                    "(from {} scenes; weakest direction, 1 sigma: {}). Local: the spread within the basin the "
-                   "optimiser ended in, not the chance of another basin (rerun from other starts to see that)",
+                   "optimiser ended in; the sigma of the result adds the basin check's restarts",
                    lidar.lidar, 100 * s[0], 100 * s[1], 100 * s[2], deg * s[3], deg * s[4], deg * s[5], estimate.units,
                    DescribeLocalUpdate(weakest.direction * weakest.sigma_units));
     } else {
@@ -96,14 +95,16 @@ YAML::Node ReportUncertainty(Calibrator& calibrator, CalibrationResult* result) 
   return node;
 }
 
-YAML::Node ReportBasinCheck(Calibrator& calibrator, double offset_deg, CalibrationResult* result) {
+YAML::Node ReportBasinCheck(Calibrator& calibrator, double offset_deg, CalibrationResult* result,
+                            std::vector<LidarBasinCheck>* checks_out) {
   const auto start = std::chrono::steady_clock::now();
   BasinCheckOptions check_options;
   check_options.offset_rad = RadiansFromDegrees(offset_deg);
   spdlog::info("basin check: minimising the joint cost again from the answer turned +-{} deg about each base axis "
                "(6 runs per lidar; --no-basin-check skips it)",
                offset_deg);
-  const std::vector<LidarBasinCheck> checks = calibrator.CheckBasins(*result, check_options);
+  *checks_out = calibrator.CheckBasins(*result, check_options);
+  const std::vector<LidarBasinCheck>& checks = *checks_out;
   const double deg = 180.0 / M_PI;
   YAML::Node node(YAML::NodeType::Map);
   for (const LidarBasinCheck& check : checks) {
@@ -175,6 +176,49 @@ YAML::Node ReportBasinCheck(Calibrator& calibrator, double offset_deg, Calibrati
   }
   result->timings_s["basin_check"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return node;
+}
+
+void ReportErrorEstimate(const std::vector<LidarUncertainty>& estimates, const std::vector<LidarBasinCheck>& checks,
+                         const std::map<std::string, Eigen::Isometry3d>& other_answers, bool trajectory_drifts,
+                         CalibrationResult* result, YAML::Node* uncertainty) {
+  const UncertaintyOptions units;
+  const double deg = 180.0 / M_PI;
+  for (std::size_t i = 0; i < estimates.size() && i < result->lidars.size(); ++i) {
+    LidarCalibration& lidar = result->lidars[i];
+    const LidarBasinCheck* check = nullptr;
+    for (const LidarBasinCheck& candidate : checks) {
+      if (candidate.lidar == lidar.lidar) check = &candidate;
+    }
+    std::vector<Eigen::Isometry3d> others;
+    if (const auto other = other_answers.find(lidar.lidar); other != other_answers.end()) {
+      others.push_back(other->second);
+    }
+    const LidarErrorEstimate estimate =
+        EstimateLidarError(lidar.T_base_lidar, estimates[i], check, others, trajectory_drifts, units);
+    if (!estimate.estimated) continue;  // ReportUncertainty warned
+    lidar.sigma = estimate.sigma_tuple;
+    lidar.covariance = estimate.covariance_tuple;
+    YAML::Node entry = (*uncertainty)[lidar.lidar];
+    entry["sigma_method"] = fmt::format(
+        "covariance of the error = local (flat directions: half the flat range) + the basin check's restarts' "
+        "second moment about the answer{}{}; shares of its trace: local {:.2f}, basin {:.2f}, trajectory model {:.2f}",
+        check != nullptr && check->checked ? "" : " (no basin check ran)",
+        others.empty() ? "" : " + the offset of the answer without the drift model", estimate.share_local,
+        estimate.share_basin, estimate.share_trajectory);
+    entry["verdict"] = VerdictName(estimate.verdict);
+    if (!estimate.verdict_reason.empty()) entry["verdict_reason"] = estimate.verdict_reason;
+    entry["weakest_direction_1sigma_d"] = Numbers(estimate.weakest_direction.data(), 6);
+    const Vector6d& s = estimate.sigma_tuple;
+    spdlog::info("lidar {}: 1-sigma of the result x {:.2f} y {:.2f} z {:.2f} cm, roll {:.3f} pitch {:.3f} yaw {:.3f} "
+                 "deg; largest along {}; verdict: {}",
+                 lidar.lidar, 100 * s[0], 100 * s[1], 100 * s[2], deg * s[3], deg * s[4], deg * s[5],
+                 DescribeLocalUpdate(estimate.weakest_direction), VerdictName(estimate.verdict));
+    if (estimate.verdict != Verdict::kGood) {
+      result->warnings.push_back(
+          fmt::format("lidar {}: the result is {}: {}", lidar.lidar, VerdictName(estimate.verdict),
+                      estimate.verdict_reason));
+    }
+  }
 }
 
 }  // namespace scenecal::cli

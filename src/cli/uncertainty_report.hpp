@@ -1,27 +1,45 @@
 // `scenecal calibrate`: how well the data determine each lidar's extrinsic
 // (core/uncertainty.hpp), logged, written into the result under the extra key
-// `uncertainty` (a LOCAL 1-sigma, within the optimiser's basin; FORMAT.md's
-// `sigma` stays unset as it would be read as the calibration's uncertainty),
-// and turned into warnings where a direction is not determined; and the
-// global check that restarts from further away.
+// `uncertainty` (the local 1-sigma within the optimiser's basin) and turned
+// into warnings where a direction is not determined; the global check that
+// restarts from further away; and both combined (with the trajectory model's
+// effect) into FORMAT.md's `sigma` and `covariance` and a verdict per lidar.
 #pragma once
+
+#include <map>
+#include <string>
+#include <vector>
 
 #include <yaml-cpp/yaml.h>
 
 #include "core/calibration_result.hpp"
 #include "core/calibrator.hpp"
+#include "core/uncertainty.hpp"
 
 namespace scenecal::cli {
 
 // Estimates every lidar's uncertainty at the result, on the calibrator's pair
 // costs, and adds warnings; returns the `uncertainty` mapping (by lidar name)
 // for the result file. Logs with spdlog.
-YAML::Node ReportUncertainty(Calibrator& calibrator, CalibrationResult* result);
+// *estimates: the estimates themselves, per lidar of the result.
+YAML::Node ReportUncertainty(Calibrator& calibrator, CalibrationResult* result,
+                             std::vector<LidarUncertainty>* estimates);
 
 // The global check (core/basin_check.hpp): restarts from the answer turned
 // +-offset_deg about each base axis; logs each, adds a warning per lidar whose
 // restarts do not come back, and returns the `basin_check` mapping (by lidar
 // name) for the result file.
-YAML::Node ReportBasinCheck(Calibrator& calibrator, double offset_deg, CalibrationResult* result);
+// *checks: the checks themselves, per lidar of the result.
+YAML::Node ReportBasinCheck(Calibrator& calibrator, double offset_deg, CalibrationResult* result,
+                            std::vector<LidarBasinCheck>* checks);
+
+// The error estimate per lidar (core EstimateLidarError) from the local
+// estimates, the basin checks (empty: none ran) and other answers of the same
+// data under another trajectory model (by lidar); sets each lidar's `sigma`
+// and `covariance`, logs the verdict, adds a warning for any but `good`, and
+// adds `sigma`, `verdict` and the parts to each lidar's entry of *uncertainty.
+void ReportErrorEstimate(const std::vector<LidarUncertainty>& estimates, const std::vector<LidarBasinCheck>& checks,
+                         const std::map<std::string, Eigen::Isometry3d>& other_answers, bool trajectory_drifts,
+                         CalibrationResult* result, YAML::Node* uncertainty);
 
 }  // namespace scenecal::cli

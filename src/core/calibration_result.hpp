@@ -16,6 +16,8 @@ struct LidarCalibration {
   std::string lidar;
   Eigen::Isometry3d T_base_lidar = Eigen::Isometry3d::Identity();
   std::optional<Vector6d> sigma;  // 1-sigma (m, m, m, rad, rad, rad), where estimated
+  // Covariance of the error of [x y z roll pitch yaw] (m, rad; symmetric), where estimated.
+  std::optional<Matrix6d> covariance;
 };
 
 struct PairCalibration {

@@ -5,7 +5,8 @@
 // (an M-estimator; the scenes of all cameras taken at one time form one unit,
 // as they see the same swathe). Moving the estimate by a along a direction v
 // changes F by dF(a) = sum_u [G_u(a v) - G_u(0)]; the spread of the units'
-// differences gives its standard error se(a). Near a minimum with curvature
+// differences gives its standard error se(a) (neighbours in time correlate:
+// a Newey-West long-run variance). Near a minimum with curvature
 // lambda and per-unit gradient spread, dF = lambda a^2 / 2 and se = a sd, so
 // the step at which the rise first exceeds k standard errors is
 // a_k = 2 k sd / lambda = 2 k sigma_v (sigma_v: the estimator's standard
@@ -30,6 +31,7 @@
 #include <Eigen/Geometry>
 
 #include "core/calibrate.hpp"
+#include "core/basin_check.hpp"
 #include "core/calibration_result.hpp"
 #include "core/geometry.hpp"
 #include "core/pair_cost.hpp"
@@ -76,6 +78,61 @@ struct LidarUncertainty {
 LidarUncertainty EstimateLidarUncertainty(const std::vector<const PairCost*>& pairs,
                                           const Eigen::Isometry3d& T_base_lidar, const UncertaintyOptions& options);
 
+
+// The error of the answer, not only the spread within its basin: what
+// FORMAT.md's `sigma` and `covariance` promise (about 95 % of true errors
+// within 2 sigma). In d (as above) it is the sum of
+//   - the local covariance (the scenes' statistical spread); along a direction
+//     the cost leaves flat, a sigma of half the flat range;
+//   - the basin check's restarts: the second moment of where each ended,
+//     relative to the answer (how far the optimiser's end wanders in a flat
+//     valley);
+//   - for each other answer of the same data under another model of the
+//     trajectory (auto's push-broom answer before the drift model was
+//     added), its offset's outer product plus its squared length (in units)
+//     spread over the six directions: the answer moved that much with the
+//     trajectory's model, so its remaining drift can move it as much again,
+//     in a direction not known.
+// None of them sees a bias shared by every scene (a constant odometry scale
+// error, a wrong camera model): the verdict says when the trajectory drifts.
+struct ErrorEstimateOptions {
+  // `good` when 2 sigma is within these along every axis (and nothing is flagged).
+  double good_translation_m = 0.01;
+  double good_rotation_rad = 0.2 * 3.14159265358979323846 / 180.0;
+};
+
+enum class Verdict { kGood, kWeak, kUnreliable };
+const char* VerdictName(Verdict verdict);  // "good", "weak", "unreliable"
+
+struct LidarErrorEstimate {
+  bool estimated = false;  // false: `why` says why (no local estimate)
+  std::string why;
+  Matrix6d covariance_d = Matrix6d::Zero();      // of d (m, rad)
+  Matrix6d covariance_tuple = Matrix6d::Zero();  // of [x y z roll pitch yaw] (m, rad): FORMAT.md's covariance
+  Vector6d sigma_tuple = Vector6d::Zero();       // its diagonal's square root: FORMAT.md's sigma
+  // Shares of the trace of covariance_d in units (local, basin, trajectory model).
+  double share_local = 0.0, share_basin = 0.0, share_trajectory = 0.0;
+  Vector6d weakest_direction = Vector6d::Zero();  // d per 1 sigma along the covariance's largest axis (units scaled)
+  Verdict verdict = Verdict::kUnreliable;
+  std::string verdict_reason;  // "weak along ..." / "unreliable: ..." in words; empty when good
+};
+
+// local: the lidar's local estimate (must be `estimated`); basin: its basin
+// check or null; other_answers: answers of the same data under another
+// trajectory model (may be empty); trajectory_drifts: a drift test found drift.
+LidarErrorEstimate EstimateLidarError(const Eigen::Isometry3d& T_base_lidar, const LidarUncertainty& local,
+                                      const LidarBasinCheck* basin,
+                                      const std::vector<Eigen::Isometry3d>& other_answers, bool trajectory_drifts,
+                                      const UncertaintyOptions& units, const ErrorEstimateOptions& options = {});
+
+// d(tuple)/d(d) at T_base_lidar (angles wrapped), by central differences.
+Matrix6d TupleJacobian(const Eigen::Isometry3d& T_base_lidar);
+
+// The squared Mahalanobis distance of `estimate` from `reference` under a
+// tuple covariance (the tuples' difference, angles wrapped); +inf when the
+// covariance is singular.
+double TupleMahalanobisSquared(const Eigen::Isometry3d& estimate, const Eigen::Isometry3d& reference,
+                               const Matrix6d& covariance_tuple);
 
 // The displacement of d by `units` along a unit direction, in words:
 // "dx +0.12 dy -0.30 dz +1.10 cm, rx +0.410 ry -0.020 rz +0.003 deg"

@@ -98,6 +98,14 @@ std::string CalibrationResultToYaml(const CalibrationResult& result, const YAML:
       out << YAML::Key << "sigma" << YAML::Value;
       detail::EmitNumbers(out, lidar.sigma->data(), 6);
     }
+    if (lidar.covariance) {
+      out << YAML::Key << "covariance" << YAML::Value << YAML::BeginSeq;
+      for (int row = 0; row < 6; ++row) {
+        const Vector6d values = lidar.covariance->row(row).transpose();
+        detail::EmitNumbers(out, values.data(), 6);
+      }
+      out << YAML::EndSeq;
+    }
     out << YAML::EndMap;
   }
   out << YAML::EndMap;
@@ -115,11 +123,14 @@ std::string CalibrationResultToYaml(const CalibrationResult& result, const YAML:
   out << YAML::Key << "termination" << YAML::Value << YAML::DoubleQuoted << result.termination;
   out << YAML::Key << "settings" << YAML::Value << YAML::BeginMap;
   for (const auto& [key, value] : result.settings) {
-    out << YAML::Key << key << YAML::Value << YAML::DoubleQuoted << value;
+    // Keys quoted like the values: an escape such as "\r" in a key must not be written back raw.
+    out << YAML::Key << YAML::DoubleQuoted << key << YAML::Value << YAML::DoubleQuoted << value;
   }
   out << YAML::EndMap;
   out << YAML::Key << "timings_s" << YAML::Value << YAML::BeginMap;
-  for (const auto& [key, value] : result.timings_s) out << YAML::Key << key << YAML::Value << FormatNumber(value);
+  for (const auto& [key, value] : result.timings_s) {
+    out << YAML::Key << YAML::DoubleQuoted << key << YAML::Value << FormatNumber(value);
+  }
   out << YAML::EndMap;
   out << YAML::Key << "warnings" << YAML::Value << YAML::BeginSeq;
   for (const std::string& warning : result.warnings) out << YAML::DoubleQuoted << warning;
@@ -164,13 +175,16 @@ CalibrationResult ParseCalibrationResult(const std::string& text, const std::str
   for (const auto& entry : lidars) {
     const std::string lidar_name = entry.first.Scalar();
     const std::string field = "lidars." + lidar_name;
-    yaml.CheckKeys(entry.second, field, {"T_base_lidar", "sigma"});
+    yaml.CheckKeys(entry.second, field, {"T_base_lidar", "sigma", "covariance"});
     LidarCalibration lidar;
     lidar.lidar = lidar_name;
     lidar.T_base_lidar = yaml.Transform(yaml.Required(entry.second, field, "T_base_lidar"), field + ".T_base_lidar");
     const YAML::Node& lidar_node = entry.second;
     if (const YAML::Node sigma = lidar_node["sigma"]; sigma.IsDefined()) {
       lidar.sigma = yaml.Sigma(sigma, field + ".sigma");
+    }
+    if (const YAML::Node covariance = lidar_node["covariance"]; covariance.IsDefined()) {
+      lidar.covariance = yaml.Covariance(covariance, field + ".covariance");
     }
     result.lidars.push_back(std::move(lidar));
   }

@@ -258,6 +258,32 @@ Eigen::Isometry3d YamlReader::Transform(const YAML::Node& node, const std::strin
   return TransformFromTuple(Eigen::Map<const Vector6d>(values.data()));
 }
 
+Matrix6d YamlReader::Covariance(const YAML::Node& node, const std::string& field) const {
+  const std::string expected = "a 6x6 symmetric matrix as 6 lists of 6 numbers (m and rad)";
+  if (!node.IsSequence() || node.size() != 6) Fail(node, field, "found " + detail::Describe(node), expected);
+  Matrix6d matrix;
+  for (std::size_t row = 0; row < 6; ++row) {
+    const std::string row_field = fmt::format("{}[{}]", field, row);
+    const std::vector<double> values = Numbers(node[row], row_field);
+    if (values.size() != 6) Fail(node[row], row_field, fmt::format("{} numbers", values.size()), expected);
+    for (std::size_t column = 0; column < 6; ++column) matrix(row, column) = values[column];
+  }
+  for (int row = 0; row < 6; ++row) {
+    if (matrix(row, row) < 0.0) {
+      Fail(node[row], fmt::format("{}[{}][{}]", field, row, row), fmt::format("a negative variance {}", matrix(row, row)),
+           expected);
+    }
+    for (int column = 0; column < row; ++column) {
+      const double a = matrix(row, column), b = matrix(column, row);
+      if (std::abs(a - b) > 1e-9 * std::max({std::abs(a), std::abs(b), 1e-300})) {
+        Fail(node[row], fmt::format("{}[{}][{}]", field, row, column),
+             fmt::format("{} against {} at [{}][{}]", a, b, column, row), expected);
+      }
+    }
+  }
+  return matrix;
+}
+
 Vector6d YamlReader::Sigma(const YAML::Node& node, const std::string& field) const {
   const std::vector<double> values = Numbers(node, field);
   if (values.size() != 6) {

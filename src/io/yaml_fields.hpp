@@ -77,6 +77,8 @@ class YamlReader {
   std::vector<double> Numbers(const YAML::Node& node, const std::string& field) const;  // finite
   // 6-tuple [x y z roll pitch yaw] or a rigid 4x4 row-major nested list.
   Eigen::Isometry3d Transform(const YAML::Node& node, const std::string& field) const;
+  // 6 rows of 6 finite numbers, symmetric (to 1e-9 relative) with a non-negative diagonal.
+  Matrix6d Covariance(const YAML::Node& node, const std::string& field) const;
   // Six non-negative numbers.
   Vector6d Sigma(const YAML::Node& node, const std::string& field) const;
 
