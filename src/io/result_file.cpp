@@ -1,5 +1,7 @@
 #include "io/result_file.hpp"
 
+#include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <set>
 #include <vector>
@@ -83,6 +85,24 @@ void WriteGroundTruth(const fs::path& path, const GroundTruth& truth) {
 
 // ---- calibration result -----------------------------------------------------------------
 
+namespace {
+
+// A key as plain text when it is a simple name (what scenecal writes, and what
+// scripts grep for), else double-quoted with escapes: a key read from an escape
+// such as "\r" must not be written back raw (found by fuzz_calibration_result).
+void EmitKey(YAML::Emitter& out, const std::string& key) {
+  const auto name_character = [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) != 0 || c == '_' || c == '-' || c == '.';
+  };
+  const bool plain = !key.empty() && (std::isalpha(static_cast<unsigned char>(key.front())) != 0 || key.front() == '_') &&
+                     std::all_of(key.begin(), key.end(), name_character);
+  out << YAML::Key;
+  if (!plain) out << YAML::DoubleQuoted;
+  out << key;
+}
+
+}  // namespace
+
 std::string CalibrationResultToYaml(const CalibrationResult& result, const YAML::Node* extra_keys) {
   static const std::set<std::string> kStandardKeys = {"format", "lidars", "pairs", "termination",
                                                       "settings", "timings_s", "warnings"};
@@ -123,13 +143,14 @@ std::string CalibrationResultToYaml(const CalibrationResult& result, const YAML:
   out << YAML::Key << "termination" << YAML::Value << YAML::DoubleQuoted << result.termination;
   out << YAML::Key << "settings" << YAML::Value << YAML::BeginMap;
   for (const auto& [key, value] : result.settings) {
-    // Keys quoted like the values: an escape such as "\r" in a key must not be written back raw.
-    out << YAML::Key << YAML::DoubleQuoted << key << YAML::Value << YAML::DoubleQuoted << value;
+    EmitKey(out, key);
+    out << YAML::Value << YAML::DoubleQuoted << value;
   }
   out << YAML::EndMap;
   out << YAML::Key << "timings_s" << YAML::Value << YAML::BeginMap;
   for (const auto& [key, value] : result.timings_s) {
-    out << YAML::Key << YAML::DoubleQuoted << key << YAML::Value << FormatNumber(value);
+    EmitKey(out, key);
+    out << YAML::Value << FormatNumber(value);
   }
   out << YAML::EndMap;
   out << YAML::Key << "warnings" << YAML::Value << YAML::BeginSeq;
