@@ -147,7 +147,7 @@ int main(int argc, char** argv) {
     data.timings_s = {{"load", 1.25}, {"scenes", 0.4}, {"optimise", 84.0}};
     const Eigen::Isometry3d T_base_lidar_result = T_base_left * last.T_camera_lidar_upper[0];
     Vector6d sigma = Tuple(0.004, 0.003, 0.006, 0.4, 0.08, 0.1);
-    data.lidars.push_back({"rear", T_base_lidar_initial, T_base_lidar_result, sigma, T_base_lidar_truth});
+    data.lidars.push_back({"rear", T_base_lidar_initial, T_base_lidar_result, sigma, T_base_lidar_truth, "weak", "the sample: 2 sigma along x exceeds 1 cm"});
     const char* cameras[2] = {"left", "right"};
     for (std::size_t p = 0; p < 2; ++p) {
       report::PairRow row;

@@ -300,7 +300,7 @@ TEST_F(ExperimentCli, CalibrateReportWritesPageAndOverlays) {
               0)
         << ReadText(log);
     const std::string html = ReadText(report / "report.html");
-    for (const char* section : {"summary", "convergence", "cost-slices", "overlays"}) {
+    for (const char* section : {"summary", "uncertainty", "convergence", "cost-slices", "overlays"}) {
       EXPECT_NE(html.find(std::string("<section id=\"") + section + "\""), std::string::npos) << section;
     }
     ExpectSelfContained(html);

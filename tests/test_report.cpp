@@ -438,7 +438,7 @@ CalibrationReportData SampleCalibrationData() {
   data.settings = {{"bins<", "32"}};
   const Eigen::Isometry3d truth = TransformFromTuple((Vector6d() << 0.1, 0.2, -1.5, 0.1, 0.02, -0.03).finished());
   const Eigen::Isometry3d result = ExpSE3((Vector6d() << 0.01, 0, 0, 0, 0.002, 0).finished()) * truth;
-  data.lidars.push_back({"<lidar>", truth, result, std::nullopt, truth});
+  data.lidars.push_back({"<lidar>", truth, result, std::nullopt, truth, "", ""});
   PairRow pair;
   pair.camera = "cam<0>";
   pair.lidar = "<lidar>";
@@ -469,8 +469,9 @@ TEST(HtmlReport, CalibrationPageIsSelfContainedEscapedAndComplete) {
   const CalibrationReportData data = SampleCalibrationData();
   const std::string html = RenderCalibrationReport(data);
   ExpectSelfContained(html);
-  for (const char* id : {"summary", "convergence", "cost-slices", "overlays"})
+  for (const char* id : {"summary", "uncertainty", "convergence", "cost-slices", "overlays"})
     EXPECT_NE(html.find(std::string("<section id=\"") + id + "\""), std::string::npos) << id;
+  EXPECT_NE(html.find("No uncertainty estimate"), std::string::npos);
   EXPECT_EQ(html.find("<rig>"), std::string::npos);
   EXPECT_EQ(html.find("<lidar>"), std::string::npos);
   EXPECT_EQ(html.find("cam<0>"), std::string::npos);
@@ -491,6 +492,38 @@ TEST(HtmlReport, CalibrationPageIsSelfContainedEscapedAndComplete) {
   EXPECT_EQ(files[0].name, "cam_0__overlay.png");
   EXPECT_EQ(files[0].content.substr(1, 3), "PNG");
   EXPECT_NE(html.find("cam_0__overlay.png"), std::string::npos);
+}
+
+TEST(HtmlReport, UncertaintySectionPlotsTwoSigmaPerDofAgainstTheGoodLimits) {
+  CalibrationReportData data;
+  const Eigen::Isometry3d truth = TransformFromTuple((Vector6d() << 0.1, 0, -1.5, 0, 0, 0).finished());
+  // The result is 0.5 cm off in x and 0.05 deg in yaw; sigma 1 cm / 0.1 deg on every axis.
+  const Eigen::Isometry3d result =
+      TransformFromTuple(TupleFromTransform(truth) + (Vector6d() << 0.005, 0, 0, 0, 0, 0.05 * M_PI / 180).finished());
+  LidarRow row{"<lidar>", truth, result, std::nullopt, truth, "", ""};
+  row.sigma = (Vector6d() << 0.01, 0.01, 0.01, 0.1 * M_PI / 180, 0.1 * M_PI / 180, 0.1 * M_PI / 180).finished();
+  row.verdict = "weak";
+  row.verdict_reason = "2 sigma along <x> exceeds 1 cm";
+  data.lidars.push_back(row);
+  LidarRow unjudged{"other", truth, result, std::nullopt, std::nullopt, "", ""};
+  data.lidars.push_back(unjudged);  // no sigma: no plot
+  const std::string html = RenderCalibrationReport(data);
+  ExpectSelfContained(html);
+  const std::size_t section = html.find("<section id=\"uncertainty\">");
+  ASSERT_NE(section, std::string::npos);
+  const std::string body = html.substr(section, html.find("</section>", section) - section);
+  EXPECT_NE(body.find("&lt;lidar&gt;: <span class=\"bad\">weak</span>"), std::string::npos) << body;
+  EXPECT_NE(body.find("along &lt;x&gt; exceeds"), std::string::npos);
+  EXPECT_EQ(body.find("<h3>other"), std::string::npos);
+  // One interval per DoF: 2 sigma is 2 cm and 0.2 deg; the truth's error as a point.
+  std::size_t intervals = 0;
+  for (std::size_t at = body.find("class=\"interval\""); at != std::string::npos;
+       at = body.find("class=\"interval\"", at + 1))
+    ++intervals;
+  EXPECT_EQ(intervals, 6u);
+  EXPECT_NE(body.find("x: result \u00b1 2 sigma [-2, 2]; error to the truth 0.5"), std::string::npos) << body;
+  EXPECT_NE(body.find("yaw: result \u00b1 2 sigma [-0.2, 0.2]; error to the truth 0.05"), std::string::npos);
+  EXPECT_NE(body.find("stroke-dasharray=\"5 4\""), std::string::npos);  // the good limits
 }
 
 TEST(HtmlReport, EmptyCalibrationDataStillRenders) {

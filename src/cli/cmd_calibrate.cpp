@@ -558,7 +558,20 @@ int RunCalibration(CalibrateArguments& args, ProcessGroup& group) {
   // The report first: it takes a while, and an interruption or a failure
   // there must not leave a result file without the report asked for.
   if (!args.report_dir.empty()) {
-    WriteCalibrationReport(args.report_dir, calibrator, outcome, dataset);
+    CalibrationReportOptions report_options;
+    // Read through const nodes: yaml-cpp's non-const operator[] would add the keys it looks up.
+    const YAML::Node& extra_read = extra;
+    if (const YAML::Node uncertainty = extra_read["uncertainty"]; uncertainty.IsMap()) {
+      for (const auto& entry : uncertainty) {
+        const YAML::Node& lidar_entry = entry.second;
+        const YAML::Node verdict = lidar_entry["verdict"];
+        if (!verdict.IsScalar()) continue;
+        const YAML::Node reason = lidar_entry["verdict_reason"];
+        report_options.verdicts[entry.first.as<std::string>()] = {verdict.as<std::string>(),
+                                                                  reason.IsScalar() ? reason.as<std::string>() : ""};
+      }
+    }
+    WriteCalibrationReport(args.report_dir, calibrator, outcome, dataset, report_options);
   }
   io::WriteCalibrationResult(args.output, result, extra);
   spdlog::info("wrote {} ({})", args.output, result.termination);

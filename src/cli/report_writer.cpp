@@ -52,6 +52,12 @@ void WriteCalibrationReport(const std::string& dir, Calibrator& calibrator, cons
   data.dataset = dataset.root.string();
   data.scheme = CalibrationSchemeName(options.scheme);
   data.metric = MetricKindName(options.cost.metric);
+  for (report::LidarRow& row : data.lidars) {
+    if (const auto it = report_options.verdicts.find(row.lidar); it != report_options.verdicts.end()) {
+      row.verdict = it->second.first;
+      row.verdict_reason = it->second.second;
+    }
+  }
 
   // Fig. 4: per pair, per alternation (alt only).
   if (alt_or_null != nullptr) {

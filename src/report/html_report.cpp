@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 
 #include "core/geometry.hpp"
+#include "core/uncertainty.hpp"
 #include "io/error.hpp"
 #include "report/svg.hpp"
 
@@ -244,6 +245,50 @@ std::string CalibrationSummary(const CalibrationReportData& data) {
          "per-axis errors are tuple(result) &minus; tuple(truth). T_camera_lidar maps lidar points into the "
          "camera frame (x right, y down, z forward).</p>\n";
   out += SettingsDetails(data.settings);
+  return out + "</section>\n";
+}
+
+std::string UncertaintySection(const std::vector<LidarRow>& lidars) {
+  std::string out = "<section id=\"uncertainty\">\n<h2>Uncertainty</h2>\n";
+  const ErrorEstimateOptions good;  // the verdict's own limits
+  const double good_cm = good.good_translation_m * kCm, good_deg = DegreesFromRadians(good.good_rotation_rad);
+  const bool any = std::any_of(lidars.begin(), lidars.end(), [](const LidarRow& row) { return row.sigma.has_value(); });
+  if (!any)
+    return out + "<p class=\"note\">No uncertainty estimate (<code>--no-uncertainty</code>, too few scenes, or a "
+                 "direction the data leave undetermined: see the warnings).</p>\n</section>\n";
+  out += fmt::format(
+      "<p class=\"note\">Per degree of freedom of T_base_lidar, the result &plusmn; 2 sigma (about 95 % of true errors "
+      "lie within it), against what counts as good (dashed: &plusmn;{} cm, &plusmn;{} deg); with a ground truth, the "
+      "error of the result (red dot).</p>\n",
+      good_cm, good_deg);
+  for (const LidarRow& row : lidars) {
+    if (!row.sigma) continue;
+    std::string verdict = row.verdict.empty() ? std::string("not judged") : H(row.verdict);
+    if (row.verdict == "good") verdict = "<span class=\"ok\">good</span>";
+    else if (!row.verdict.empty()) verdict = "<span class=\"bad\">" + H(row.verdict) + "</span>";
+    out += "<h3>" + H(row.lidar) + ": " + verdict + "</h3>\n";
+    if (!row.verdict_reason.empty()) out += "<p class=\"note\">" + H(row.verdict_reason) + "</p>\n";
+    std::optional<Vector6d> error;
+    if (row.T_base_lidar_truth) error = TupleError(row.T_base_lidar, *row.T_base_lidar_truth);
+    std::vector<std::string> panels;
+    for (int group = 0; group < 2; ++group) {
+      IntervalPlot plot;
+      plot.title = group == 0 ? "translation" : "rotation";
+      plot.y_label = group == 0 ? "cm" : "deg";
+      plot.interval_label = "result \u00b1 2 sigma";
+      plot.point_label = "error to the truth";
+      plot.limit = group == 0 ? good_cm : good_deg;
+      plot.limit_label = "good";
+      for (int k = 3 * group; k < 3 * group + 3; ++k) {
+        const double two_sigma = 2.0 * TupleDisplay(*row.sigma, k);
+        IntervalCategory category{kTupleNames[k], -two_sigma, 0.0, two_sigma, std::nullopt};
+        if (error) category.point = TupleDisplay(*error, k);
+        plot.categories.push_back(category);
+      }
+      panels.push_back(RenderIntervalPlot(plot));
+    }
+    out += "<div class=\"figure\">" + SmallMultiples(panels, 2) + "</div>\n";
+  }
   return out + "</section>\n";
 }
 
@@ -647,9 +692,11 @@ std::string RenderCalibrationReport(const CalibrationReportData& data) {
   std::string out = PageOpen(data.title, header,
                              {{"summary", "Summary"},
                               {"convergence", "Convergence (Fig. 4)"},
+                              {"uncertainty", "Uncertainty"},
                               {"cost-slices", "Cost slices (Fig. 6)"},
                               {"overlays", "Overlays (Fig. 9)"}});
   out += CalibrationSummary(data);
+  out += UncertaintySection(data.lidars);
   out += ConvergenceSection(data.convergence);
   out += CostSliceSection(data.cost_slices);
   out += OverlaySection(data.overlays);

@@ -11,6 +11,9 @@
 //                 solution per alternation (error to the truth when known,
 //                 the value otherwise), and the lower-level cost.
 //   #cost-slices  Fig. 6: the cost sampled along each DoF, light to dark per alternation.
+//   #uncertainty  per lidar the verdict and a plot of the +-2 sigma interval per
+//                 DoF against what counts as good (1 cm / 0.2 deg), with the
+//                 error to the truth when known.
 //   #overlays     Fig. 9: projected swathe, initial guess (red) vs result (blue),
 //                 and coloured by reflectance; also returned as PNG attachments.
 // Experiment report (`scenecal experiment`), sections by id:
@@ -63,6 +66,8 @@ struct LidarRow {
   Eigen::Isometry3d T_base_lidar = Eigen::Isometry3d::Identity();  // the result
   std::optional<Vector6d> sigma;                                   // 1-sigma (m, m, m, rad, rad, rad)
   std::optional<Eigen::Isometry3d> T_base_lidar_truth;
+  std::string verdict;         // "good" | "weak" | "unreliable"; empty when not judged
+  std::string verdict_reason;  // why it is not good, in words
 };
 
 struct PairRow {

@@ -390,6 +390,77 @@ std::string RenderBoxPlot(const BoxPlot& plot) {
   return out;
 }
 
+std::string RenderIntervalPlot(const IntervalPlot& plot) {
+  const int width = std::max(160, plot.width_px), height = std::max(120, plot.height_px);
+  const double left = 62, right = width - 12.0, top = plot.title.empty() ? 10.0 : 26.0;
+  const double bottom = height - 40.0;  // room for the category labels
+  const std::size_t categories = std::max<std::size_t>(1, plot.categories.size());
+  const auto finite = [](const IntervalCategory& c) {
+    return std::isfinite(c.low) && std::isfinite(c.high) && std::isfinite(c.centre);
+  };
+
+  Range y_range;
+  y_range.Include(0.0);
+  for (const IntervalCategory& c : plot.categories) {
+    if (finite(c)) {
+      y_range.Include(c.low);
+      y_range.Include(c.high);
+    }
+    if (c.point) y_range.Include(*c.point);
+  }
+  if (plot.limit && std::isfinite(*plot.limit)) {
+    y_range.Include(*plot.limit);
+    y_range.Include(-*plot.limit);
+  }
+  if (y_range.Empty() || y_range.low == y_range.high) y_range = {-1.0, 1.0};
+  y_range.Include(y_range.high + 0.5 * (y_range.high - y_range.low));  // room for the legend above the bars
+  const std::vector<double> y_ticks = NiceTicks(y_range.low, y_range.high, std::max(3, (height - 60) / 45));
+  const Scale sy{y_ticks.front(), y_ticks.back(), bottom, top};
+  const Scale sx{0.0, static_cast<double>(categories), left, right};
+
+  std::string out = SvgOpen(width, height);
+  if (!plot.title.empty()) out += Text(0.5 * (left + right), 17, plot.title, "middle", 12, " font-weight=\"bold\"");
+  out += Axes(sx, {}, sy, y_ticks, "", plot.y_label, height, false);
+  const std::string colour = EscapeXml(plot.colour);
+  const bool any_point = std::any_of(plot.categories.begin(), plot.categories.end(),
+                                     [](const IntervalCategory& c) { return c.point.has_value(); });
+  if (plot.limit && std::isfinite(*plot.limit)) {
+    for (double y : {*plot.limit, -*plot.limit})
+      out += fmt::format("<line x1=\"{0}\" y1=\"{2}\" x2=\"{1}\" y2=\"{2}\" stroke=\"#2ca02c\" "
+                         "stroke-dasharray=\"5 4\"/>\n",
+                         Px(left), Px(right), Px(sy(y)));
+  }
+  const double category_px = (right - left) / static_cast<double>(categories);
+  const double half = std::min(14.0, 0.25 * category_px);
+  for (std::size_t i = 0; i < plot.categories.size(); ++i) {
+    const IntervalCategory& c = plot.categories[i];
+    const double x = sx(static_cast<double>(i) + 0.5);
+    out += Text(x, bottom + 14, c.label, "middle", 10);
+    if (!finite(c)) {
+      out += Text(x, bottom - 4, "n/a", "middle", 9);
+      continue;
+    }
+    out += fmt::format("<g><title>{}</title>\n",
+                       EscapeXml(fmt::format("{}: {} [{:.4g}, {:.4g}]{}", c.label, plot.interval_label, c.low,
+                                             c.high,
+                                             c.point ? fmt::format("; {} {:.4g}", plot.point_label, *c.point) : "")));
+    out += fmt::format("<rect class=\"interval\" x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\" fill=\"{}\" "
+                       "fill-opacity=\"0.3\" stroke=\"{}\"/>\n",
+                       Px(x - half), Px(sy(c.high)), Px(2 * half), Px(std::max(0.5, sy(c.low) - sy(c.high))), colour,
+                       colour);
+    out += fmt::format("<line x1=\"{0}\" y1=\"{2}\" x2=\"{1}\" y2=\"{2}\" stroke=\"{3}\" stroke-width=\"2\"/>\n",
+                       Px(x - half), Px(x + half), Px(sy(c.centre)), colour);
+    if (c.point) out += MarkerShape(Marker::kCircle, x, sy(*c.point), "#d62728");
+    out += "</g>\n";
+  }
+  std::vector<LegendEntry> legend{{plot.interval_label, colour, Marker::kNone, false, "", true}};
+  if (any_point) legend.push_back({plot.point_label, "#d62728", Marker::kCircle, false, "", false});
+  if (plot.limit && std::isfinite(*plot.limit)) legend.push_back({plot.limit_label, "#2ca02c", Marker::kNone, true, "5 4", false});
+  out += Legend(legend, right, top);
+  out += "</svg>\n";
+  return out;
+}
+
 std::string StandaloneSvg(const std::string& svg) {
   if (svg.rfind("<svg", 0) != 0) return svg;
   return "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<svg xmlns=\"http://www.w3.org/2000/svg\"" + svg.substr(4);

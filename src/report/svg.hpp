@@ -89,6 +89,31 @@ struct BoxPlot {
 
 std::string RenderBoxPlot(const BoxPlot& plot);
 
+// Intervals per category (e.g. +-2 sigma per degree of freedom): a bar from
+// low to high around a centre tick, an optional point (e.g. the error to the
+// truth) and optional symmetric limits drawn as dashed lines at +-limit (e.g.
+// what counts as good). Categories with non-finite bounds show "n/a".
+struct IntervalCategory {
+  std::string label;
+  double low = 0.0, centre = 0.0, high = 0.0;
+  std::optional<double> point;
+};
+
+struct IntervalPlot {
+  std::string title;
+  std::string y_label;
+  std::vector<IntervalCategory> categories;
+  std::string interval_label = "interval";
+  std::string point_label = "point";
+  std::optional<double> limit;  // dashed lines at +-limit
+  std::string limit_label = "limit";
+  std::string colour = "#1f77b4";
+  int width_px = 360;
+  int height_px = 260;
+};
+
+std::string RenderIntervalPlot(const IntervalPlot& plot);
+
 // Lays out panels (each an <svg> from the functions above) in a grid of
 // `columns`, left to right then top to bottom, as one <svg>. The cell size is
 // the largest panel; an optional title runs across the top.
