@@ -352,6 +352,19 @@ TEST_F(CalibrateOnSimulation, CliExitCodes) {
                    &number_text),
             2);
   EXPECT_NE(number_text.find("--image-highpass"), std::string::npos) << number_text;
+  for (const char* scenes : {"0", "many", "3x"}) {
+    EXPECT_EQ(RunCli("calibrate " + DatasetPath().string() + " --output " + output.string() + " --scenes " + scenes,
+                     &number_text),
+              2);
+    EXPECT_NE(number_text.find(std::string("--scenes: ") + scenes + " is not a count within 1..100000 or auto"),
+              std::string::npos)
+        << number_text;
+  }
+  EXPECT_EQ(RunCli("calibrate " + DatasetPath().string() + " --output " + output.string() +
+                       " --scene-choice best",
+                   &number_text),
+            2);
+  EXPECT_NE(number_text.find("--scene-choice"), std::string::npos) << number_text;
   // The stages spread over more alternations than there are: exit 2, both counts named.
   std::string stage_text;
   EXPECT_EQ(RunCli("calibrate " + DatasetPath().string() + " --output " + output.string() +
@@ -776,6 +789,60 @@ TEST_F(CalibrateOnSimulation, RangeSplitScoresNearAndFarPointsAsTwoScenes) {
   options.range_split_m = -1.0;
   EXPECT_FALSE(options.IsValid(&why));
   EXPECT_NE(why.find("range_split_m"), std::string::npos);
+}
+
+// The informative choice keeps whole frames (both range bands), as many as asked, or with a count chosen by
+// the data between its bounds; the settings say so.
+TEST_F(CalibrateOnSimulation, InformativeChoiceKeepsWholeFramesAndAutoChoosesTheCount) {
+  const io::Dataset dataset = io::OpenDataset(DatasetPath());
+  CalibrationOptions options;
+  options.scheme = CalibrationScheme::kJoint;
+  options.range_split_m = 5.0;
+  options.scenes.scenes_per_camera = 3;
+  options.scenes.choice = SceneChoice::kInformative;
+  options.scenes.informative_pool_factor = 2;
+  const CalibrationInput input = Load(dataset, options.scenes);
+  const Eigen::Isometry3d T_base_lidar = dataset.ground_truth->T_base_lidar.at("lms_rear");
+  std::vector<std::string> messages;
+  const auto collect = [&](const std::string& message) { messages.push_back(message); };
+  {
+    Calibrator calibrator(input, options, collect);
+    ASSERT_EQ(calibrator.Status(), CalibrationStatus::kSuccess) << calibrator.Why();
+    PairCost* left = calibrator.PairAt("left", "lms_rear", T_base_lidar);
+    ASSERT_NE(left, nullptr);
+    EXPECT_EQ(left->FrameCount(), 3);
+    EXPECT_EQ(left->SceneCount(), 6);  // a near and a far band per kept frame
+  }
+  const auto said = [&](const std::string& text) {
+    return std::any_of(messages.begin(), messages.end(),
+                       [&](const std::string& m) { return m.find(text) != std::string::npos; });
+  };
+  const auto scene_choice_setting = [&] {
+    CalibrationResult result;
+    RecordCommonSettings(options, &result);
+    return result.settings.at("scene_choice");
+  };
+  EXPECT_TRUE(said("left/lms_rear: kept the 3 most informative of 6 frames"));
+  EXPECT_EQ(scene_choice_setting(), "informative of 6 per camera");
+
+  messages.clear();
+  options.scenes.scenes_per_camera = 4;
+  options.scenes.auto_variance_ratio = kAutoSceneVarianceRatio;
+  options.scenes.min_auto_scenes = 2;
+  const CalibrationInput auto_input = Load(dataset, options.scenes);
+  Calibrator calibrator(auto_input, options, collect);
+  ASSERT_EQ(calibrator.Status(), CalibrationStatus::kSuccess) << calibrator.Why();
+  PairCost* left = calibrator.PairAt("left", "lms_rear", T_base_lidar);
+  ASSERT_NE(left, nullptr);
+  EXPECT_GE(left->FrameCount(), 2);
+  EXPECT_LE(left->FrameCount(), 4);
+  EXPECT_TRUE(said("left/lms_rear: kept the " + std::to_string(left->FrameCount()) + " most informative of 8"));
+  EXPECT_NE(scene_choice_setting().find("within 2x of the whole pool's (at least 2)"), std::string::npos)
+      << scene_choice_setting();
+  options.scenes.auto_variance_ratio = 0.5;
+  std::string why;
+  EXPECT_FALSE(options.IsValid(&why));
+  EXPECT_NE(why.find("auto_variance_ratio"), std::string::npos) << why;
 }
 
 TEST_F(CalibrateOnSimulation, ThinningKeepsFewerPointsOfLongSwathesAndTheSameMinimum) {

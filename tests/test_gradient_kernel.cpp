@@ -17,6 +17,7 @@
 #include <cstdio>
 #include <limits>
 #include <random>
+#include <span>
 #include <vector>
 
 #include <ceres/jet.h>
@@ -205,6 +206,61 @@ TEST(GradientKernel, SampleGradientSumMatchesThePerPointReference) {
   EXPECT_EQ(compared, 3 * 2 * 5 * 2);
   RecordProperty("worst_relative_difference", std::to_string(worst));
   std::printf("worst relative difference over %d cases: %.3g\n", compared, worst);
+}
+
+// SceneSwathe::AlignmentInformation against its definition written out per point: the central-difference
+// image gradient, the pinhole Jacobian by ceres::Jet, dp/ddelta = R_kj [I, -[w]x] with w the point about the
+// lidar origin, weighted by the reflectance steps to the scan neighbours.
+TEST(GradientKernel, AlignmentInformationMatchesThePerPointReference) {
+  TestSwathe t = MakeSwathe(CameraModelKind::kPinhole, 29u);
+  ASSERT_GT(t.swathe.RefreshVisibility(Eigen::Isometry3d::Identity(), SwatheOptions{}), 1000u);
+  std::vector<Eigen::Isometry3d> T_camerak_cameraj;
+  for (int j = 0; j < static_cast<int>(t.scans.size()); ++j) {
+    Vector6d tuple;
+    tuple << 0.05 * j, -0.02 * j, 0.3 * j, RadiansFromDegrees(0.4 * j), RadiansFromDegrees(-0.3 * j),
+        RadiansFromDegrees(0.2 * j);
+    T_camerak_cameraj.push_back(TransformFromTuple(tuple));
+  }
+  const ProjectionParams params = MakeProjectionParams(t.camera.model, 0.5, SwatheOptions{}.min_depth_m);
+  std::vector<Eigen::Vector3d> points;
+  std::vector<std::size_t> scan_of_point;
+  for (std::size_t s = 0; s < t.scans.size(); ++s) {
+    for (const LidarPoint& p : t.scans[s].points) {
+      const double range2 = static_cast<double>(p.x) * p.x + static_cast<double>(p.y) * p.y +
+                            static_cast<double>(p.z) * p.z;
+      const SwatheOptions limits;
+      if (range2 < limits.min_range_m * limits.min_range_m || range2 > limits.max_range_m * limits.max_range_m)
+        continue;
+      points.emplace_back(p.x, p.y, p.z);
+      scan_of_point.push_back(s);
+    }
+  }
+  ASSERT_EQ(points.size(), t.swathe.PointCount());
+  const std::span<const float> reflectance = t.swathe.Points().reflectance01;
+  const cv::Mat& image = t.swathe.Image();
+  for (const Eigen::Isometry3d& T : TestPoses()) {
+    Matrix6d reference = Matrix6d::Zero();
+    t.swathe.ForEachProjected(T, true, [&](std::size_t i, float, float u, float v, float) {
+      if (!(u >= 1.0f && u < image.cols - 2.0f && v >= 1.0f && v < image.rows - 2.0f)) return;
+      double contrast = 0.0;
+      if (i > 0 && scan_of_point[i - 1] == scan_of_point[i]) contrast += std::abs(reflectance[i] - reflectance[i - 1]);
+      if (i + 1 < points.size() && scan_of_point[i + 1] == scan_of_point[i])
+        contrast += std::abs(reflectance[i + 1] - reflectance[i]);
+      const Eigen::RowVector2d di_duv(0.5 * (t.swathe.Sample(u + 1.0f, v) - t.swathe.Sample(u - 1.0f, v)),
+                                      0.5 * (t.swathe.Sample(u, v + 1.0f) - t.swathe.Sample(u, v - 1.0f)));
+      const Eigen::Isometry3d& T_kj = T_camerak_cameraj[scan_of_point[i]];
+      const Eigen::Vector3d w = T.linear() * points[i];  // about the lidar origin, camera axes
+      const Eigen::Vector3d p = T_kj * (T * points[i]);
+      Eigen::Matrix<double, 3, 6> dp_ddelta;
+      dp_ddelta.leftCols<3>() = T_kj.linear();
+      dp_ddelta.rightCols<3>() = -T_kj.linear() * Skew(w);
+      const Eigen::Matrix<double, 1, 6> j = di_duv * ReferenceProjectionJacobian(params, p) * dp_ddelta;
+      reference += contrast * j.transpose() * j;
+    });
+    const Matrix6d fast = t.swathe.AlignmentInformation(T);
+    ASSERT_GT(reference.norm(), 0.0);
+    EXPECT_LT((fast - reference).norm() / reference.norm(), 1e-4) << "fast:\n" << fast << "\nreference:\n" << reference;
+  }
 }
 
 TEST(GradientKernel, AddBSplineSamplesGivesTheVisitorHistogramBitForBit) {

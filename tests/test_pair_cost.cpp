@@ -2,6 +2,7 @@
 // seen by a pinhole camera, lidar points on it whose reflectance is a
 // monotone function of the albedo. The cost must be lowest at the true
 // extrinsic, and the z-buffer must hide points behind a nearer surface.
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -13,6 +14,7 @@
 
 #include "core/geometry.hpp"
 #include "core/pair_cost.hpp"
+#include "core/scene_information.hpp"
 
 namespace scenecal {
 namespace {
@@ -383,6 +385,68 @@ TEST(PairCost, SwatheOptionsRefuseBadOcclusionAndBorderSettings) {
   refused([](SwatheOptions& o) { o.occlusion_absolute_margin_m = std::nan(""); }, "occlusion margins");
   refused([](SwatheOptions& o) { o.refresh_border_px = -1.0; }, "refresh_border_px");
   refused([&](SwatheOptions& o) { o.refresh_border_px = inf; }, "refresh_border_px");
+}
+
+TEST(InformativeScenes, ChoiceCoversTheWeakDirectionsBeforeRepeatingAStrongOne) {
+  const InformativeChoiceOptions options;
+  Vector6d unit;  // metres / radians per unit
+  unit << Eigen::Vector3d::Constant(options.unit_translation_m), Eigen::Vector3d::Constant(options.unit_rotation_rad);
+  // Information in units, converted to metres / radians: H = S^-1 H_units S^-1.
+  const auto scene = [&](int axis, double strength) {
+    Matrix6d in_units = Matrix6d::Zero();
+    in_units(axis, axis) = strength;
+    return Matrix6d(unit.cwiseInverse().asDiagonal() * in_units * unit.cwiseInverse().asDiagonal());
+  };
+  std::vector<Matrix6d> pool;
+  for (int i = 0; i < 4; ++i) pool.push_back(scene(0, 100.0));  // 0..3: x only, strongly
+  for (int axis = 0; axis < 6; ++axis) pool.push_back(scene(axis, 1.0));  // 4..9: one direction each, weakly
+  pool.push_back(Matrix6d::Zero());  // 10: nothing
+  const InformativeChoice choice = ChooseInformativeScenes(pool, 6, options);
+  // One strong x scene (the first of the tie), then every other direction; not the weak x or a second strong x.
+  EXPECT_EQ(choice.chosen, (std::vector<std::size_t>{0, 5, 6, 7, 8, 9}));
+  EXPECT_GE(choice.predicted_variance_chosen, choice.predicted_variance_pool);
+  EXPECT_LT(choice.predicted_variance_chosen, 1.1 * choice.predicted_variance_pool);
+  // Evenly spread picks (every third) leave directions unconstrained: far worse.
+  Matrix6d spread = Matrix6d::Zero();
+  for (const std::size_t s : {0, 3, 6, 9}) spread += unit.asDiagonal() * pool[s] * unit.asDiagonal();
+  EXPECT_LT(spread.fullPivLu().rank(), 6);
+  // All of a pool when asked for more; the empty scene last.
+  const InformativeChoice all = ChooseInformativeScenes(pool, 50, options);
+  EXPECT_EQ(all.chosen.size(), pool.size());
+  const InformativeChoice ten = ChooseInformativeScenes(pool, 10, options);
+  EXPECT_EQ(std::count(ten.chosen.begin(), ten.chosen.end(), std::size_t{10}), 0);
+  EXPECT_TRUE(ChooseInformativeScenes({}, 3, options).chosen.empty());
+}
+
+TEST(InformativeScenes, PairKeepsTheFramesThatInformAndDropsFlatOnes) {
+  const Synthetic s = MakeSynthetic(false);
+  PairCostOptions options;
+  const cv::Mat flat(s.image.size(), s.image.type(), cv::Scalar(0.5));
+  std::vector<SceneSwathe> swathes;
+  for (int frame = 0; frame < 5; ++frame) {
+    Scene scene;
+    scene.camera = "cam";
+    scene.lidar = "lidar";
+    scene.image_t_us = 1000 * frame;
+    scene.scans.push_back({scene.image_t_us, Eigen::Isometry3d::Identity()});
+    // Frames 1 and 3 textured, the others a uniform grey (no edge to align).
+    swathes.push_back(SceneSwathe::Build(scene, s.camera, frame % 2 == 1 ? s.image : flat, {&s.scan}, options.swathe,
+                                         NormalisationOptions{}));
+  }
+  PairCost cost(s.camera, "lidar", std::move(swathes), options);
+  ASSERT_EQ(cost.RefreshVisibility(s.T_camera_lidar), 2);  // the flat frames are not used
+  ASSERT_EQ(cost.FrameCount(), 5);
+  const Matrix6d information = cost.Scenes()[1].AlignmentInformation(s.T_camera_lidar);
+  EXPECT_TRUE(information.isApprox(information.transpose()));
+  EXPECT_GT(information.trace(), 0.0);
+  EXPECT_EQ(cost.Scenes()[0].AlignmentInformation(s.T_camera_lidar).norm(), 0.0);  // uniform image: nothing
+  const InformativeChoice choice = cost.KeepMostInformative(s.T_camera_lidar, 2);
+  EXPECT_EQ(choice.chosen, (std::vector<std::size_t>{1, 3}));
+  ASSERT_EQ(cost.SceneCount(), 2);
+  EXPECT_EQ(cost.Scenes()[0].ImageTime(), 1000);
+  EXPECT_EQ(cost.Scenes()[1].ImageTime(), 3000);
+  EXPECT_EQ(cost.RefreshVisibility(s.T_camera_lidar), 2);
+  EXPECT_TRUE(std::isfinite(cost.Evaluate(s.T_camera_lidar)));
 }
 
 }  // namespace

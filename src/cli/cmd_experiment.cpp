@@ -501,7 +501,7 @@ report::ExperimentReportData MakeReportData(const ExperimentArguments& args, con
                                          args.perturb_translation_m, args.perturb_rotation_deg, args.seed);
   data.settings["schemes"] = fmt::format("{}", fmt::join(args.schemes, ", "));
   data.settings["metrics"] = fmt::format("{}", fmt::join(args.metrics, ", "));
-  data.settings["scenes per camera"] = std::to_string(args.cost.scenes);
+  data.settings["scenes per camera"] = args.cost.scenes;
   data.settings["swathe length"] = fmt::format("{} m", args.cost.swathe_length_m);
   data.settings["alternations (alt)"] =
       std::to_string(args.alternations) +

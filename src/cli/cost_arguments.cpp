@@ -15,8 +15,44 @@ namespace {
 
 // Which scans make up a scene (the frames, the swathe window).
 void AddSceneOptions(CLI::App* command, CostArguments* args) {
-  command->add_option("--scenes", args->scenes, "Camera frames (scenes) per camera, spread over the drive by distance")
-      ->check(CLI::Range(1, 100000))
+  command
+      ->add_option("--scenes", args->scenes,
+                   "Camera frames (scenes) per camera: a count (spread over the drive by distance unless "
+                   "--scene-choice informative), or auto: the informative choice from a pool of --scene-pool x " +
+                       std::to_string(kCoreDefaults.scenes.scenes_per_camera) +
+                       " frames keeps the fewest (at least " + std::to_string(kCoreDefaults.scenes.min_auto_scenes) +
+                       ", at most " + std::to_string(kCoreDefaults.scenes.scenes_per_camera) +
+                       ") whose predicted variance is within " + NumberText(kAutoSceneVarianceRatio) +
+                       "x of the whole pool's")
+      ->check(CLI::Validator(
+          [](std::string& input) -> std::string {
+            if (input == "auto") return {};
+            std::size_t used = 0;
+            long value = 0;
+            try {
+              value = std::stol(input, &used);
+            } catch (const std::exception&) {
+              used = 0;
+            }
+            return used == input.size() && !input.empty() && value >= 1 && value <= 100000
+                       ? std::string()
+                       : input + " is not a count within 1..100000 or auto";
+          },
+          "COUNT|auto"))
+      ->capture_default_str();
+  command
+      ->add_option("--scene-choice", args->scene_choice,
+                   "How the --scenes frames are chosen: spread (evenly by distance, the paper) or informative (a pool "
+                   "of --scene-pool times as many frames is built, spread by distance, and each camera keeps the "
+                   "frames whose image edges and reflectance steps constrain the extrinsic most at the initial "
+                   "guess, covering its weakest directions first; --scenes auto implies informative)")
+      ->check(CLI::IsMember({"spread", "informative"}))
+      ->capture_default_str();
+  command
+      ->add_option("--scene-pool", args->scene_pool,
+                   "informative: the pool holds this many times --scenes frames per camera (each is loaded and "
+                   "its swathe built once)")
+      ->check(CLI::Range(1, 20))
       ->capture_default_str();
   command->add_option("--swathe-length", args->swathe_length_m,
                       "Swathe length L in metres: the scans taken while the vehicle travels L m")
@@ -209,7 +245,15 @@ void ApplyCostArguments(const CostArguments& args, CalibrationOptions* options) 
   if (args.ImageChannel() == io::ImageChannel::kExcessGreen && !intensity_given) {
     options->normalisation.intensity = Normalisation::kRank;
   }
-  options->scenes.scenes_per_camera = args.scenes;
+  ParseSceneChoice(args.scene_choice, &options->scenes.choice);
+  options->scenes.informative_pool_factor = args.scene_pool;
+  if (args.scenes == "auto") {
+    options->scenes.scenes_per_camera = kCoreDefaults.scenes.scenes_per_camera;
+    options->scenes.choice = SceneChoice::kInformative;
+    options->scenes.auto_variance_ratio = kAutoSceneVarianceRatio;
+  } else {
+    options->scenes.scenes_per_camera = std::stoi(args.scenes);  // checked by --scenes' validator
+  }
   options->scenes.swathe_length_m = args.swathe_length_m;
   ParseSwatheDirection(args.direction, &options->scenes.direction);
   options->scenes.max_scans_per_scene = args.max_scans_per_scene;

@@ -23,7 +23,9 @@ inline const CalibrationOptions kCoreDefaults{};
 
 struct CostArguments {
   std::string metric = MetricKindName(kCoreDefaults.cost.metric);
-  int scenes = kCoreDefaults.scenes.scenes_per_camera;
+  std::string scenes = std::to_string(kCoreDefaults.scenes.scenes_per_camera);  // a count, or "auto"
+  std::string scene_choice = SceneChoiceName(kCoreDefaults.scenes.choice);
+  int scene_pool = kCoreDefaults.scenes.informative_pool_factor;
   double swathe_length_m = kCoreDefaults.scenes.swathe_length_m;
   std::string direction = SwatheDirectionName(kCoreDefaults.scenes.direction);
   int bins = kCoreDefaults.cost.histogram.reflectance_bins;

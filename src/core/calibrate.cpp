@@ -103,6 +103,16 @@ void RecordCommonSettings(const CalibrationOptions& options, CalibrationResult* 
           ? NumberText(options.normalisation.intensity_highpass_width_fraction) + " of the image width"
           : std::string("off");
   settings["scenes_per_camera"] = std::to_string(options.scenes.scenes_per_camera);
+  if (options.scenes.choice == SceneChoice::kInformative) {
+    settings["scene_choice"] =
+        std::string("informative of ") + std::to_string(options.scenes.CandidatesPerCamera()) + " per camera" +
+        (options.scenes.auto_variance_ratio > 0.0
+             ? ", as many as bring the predicted variance within " + NumberText(options.scenes.auto_variance_ratio) +
+                   "x of the whole pool's (at least " + std::to_string(options.scenes.min_auto_scenes) + ")"
+             : std::string());
+  } else {
+    settings["scene_choice"] = "spread";
+  }
   settings["swathe_length_m"] = NumberText(options.scenes.swathe_length_m);
   settings["direction"] = SwatheDirectionName(options.scenes.direction);
   settings["odometry_scale_percent"] = NumberText(100.0 * options.scenes.odometry_scale);

@@ -157,11 +157,30 @@ void Calibrator::BuildPairs() {
              DescribeUnusable(lidar.name, built.pairs, options_.cost.min_points_per_scene));
       return;
     }
+    if (options_.scenes.choice == SceneChoice::kInformative) KeepInformativeScenes(built);
     // Initial costs (visibility at the initial guess).
     for (const auto& pair : built.pairs) {
       built.initial_costs.push_back(pair->Evaluate(pair->Camera().T_camera_base() * lidar.T_base_lidar));
     }
     lidars_.push_back(std::move(built));
+  }
+}
+
+void Calibrator::KeepInformativeScenes(LidarPairs& built) {
+  for (auto& pair : built.pairs) {
+    if (pair->SceneCount() == 0) continue;
+    const Eigen::Isometry3d T_camera_lidar = pair->Camera().T_camera_base() * built.lidar->T_base_lidar;
+    const int pool = pair->FrameCount();
+    InformativeChoiceOptions choice_options;
+    choice_options.max_variance_ratio = options_.scenes.auto_variance_ratio;
+    choice_options.min_count = static_cast<std::size_t>(options_.scenes.min_auto_scenes);
+    const InformativeChoice choice =
+        pair->KeepMostInformative(T_camera_lidar, options_.scenes.scenes_per_camera, choice_options);
+    pair->RefreshVisibility(T_camera_lidar);
+    Say("scenes " + pair->Camera().name + "/" + built.lidar->name + ": kept the " +
+        std::to_string(pair->FrameCount()) + " most informative of " + std::to_string(pool) +
+        " frames (predicted variance " + NumberText(choice.predicted_variance_chosen / choice.predicted_variance_pool) +
+        " times the whole pool's)");
   }
 }
 

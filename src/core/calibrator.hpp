@@ -97,6 +97,8 @@ class Calibrator {
 
   CalibrationStatus Cannot(CalibrationStatus status, std::string why);
   void BuildPairs();
+  // SceneChoice::kInformative: each pair keeps its scenes_per_camera most informative frames of the pool.
+  void KeepInformativeScenes(LidarPairs& built);
   void BuildAlternatingSetup();
   CalibrationOutcome SolveOnceOrJoint();
   // joint: one problem over the lidar's T_base_lidar; once: one per pair. Fill each pair's T_camera_lidar and

@@ -89,6 +89,43 @@ int PairCost::RefreshVisibility(const Eigen::Isometry3d& T_camera_lidar) {
   return static_cast<int>(used_.size());
 }
 
+int PairCost::FrameCount() const {
+  std::vector<TimeUs> times;
+  for (const SceneSwathe& scene : scenes_) times.push_back(scene.ImageTime());
+  std::sort(times.begin(), times.end());
+  return static_cast<int>(std::unique(times.begin(), times.end()) - times.begin());
+}
+
+InformativeChoice PairCost::KeepMostInformative(const Eigen::Isometry3d& T_camera_lidar, int count,
+                                                const InformativeChoiceOptions& options) {
+  std::vector<Matrix6d> per_scene(scenes_.size(), Matrix6d::Zero());
+  tbb::parallel_for(std::size_t{0}, scenes_.size(), [&](std::size_t s) {
+    ThrowIfInterrupted();
+    if (states_[s] == SceneState::kUsed) per_scene[s] = scenes_[s].AlignmentInformation(T_camera_lidar);
+  });
+  // One candidate per camera frame: its swathes together.
+  std::map<TimeUs, std::size_t> frame_of_time;
+  for (const SceneSwathe& scene : scenes_) frame_of_time.emplace(scene.ImageTime(), 0);
+  std::size_t next = 0;
+  for (auto& [time, frame] : frame_of_time) frame = next++;
+  std::vector<Matrix6d> per_frame(frame_of_time.size(), Matrix6d::Zero());
+  for (std::size_t s = 0; s < scenes_.size(); ++s) per_frame[frame_of_time.at(scenes_[s].ImageTime())] += per_scene[s];
+  InformativeChoice choice = ChooseInformativeScenes(per_frame, static_cast<std::size_t>(std::max(0, count)), options);
+  std::vector<bool> keep_frame(per_frame.size(), false);
+  for (const std::size_t frame : choice.chosen) keep_frame[frame] = true;
+  std::vector<SceneSwathe> kept;
+  for (SceneSwathe& scene : scenes_) {
+    if (keep_frame[frame_of_time.at(scene.ImageTime())]) kept.push_back(std::move(scene));
+  }
+  scenes_ = std::move(kept);
+  // Every kept scene counts until the next refresh decides.
+  states_.assign(scenes_.size(), SceneState::kUsed);
+  projected_at_refresh_.assign(scenes_.size(), 0);
+  used_.clear();
+  for (std::size_t s = 0; s < scenes_.size(); ++s) used_.push_back(s);
+  return choice;
+}
+
 double PairCost::SceneCost(std::size_t scene, const Eigen::Isometry3d& T_camera_lidar, std::size_t* projected) const {
   const SceneSwathe& swathe = scenes_[scene];
   JointHistogram histogram(options_.histogram);

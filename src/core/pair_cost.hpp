@@ -25,6 +25,7 @@
 
 #include "core/metric.hpp"
 #include "core/rig.hpp"
+#include "core/scene_information.hpp"
 #include "core/swathe.hpp"
 
 namespace scenecal {
@@ -89,6 +90,17 @@ class PairCost {
   // Sum of the lidar-frame coordinates (metres) of the visible points that
   // project under T_camera_lidar, over the used scenes; *count gets their number.
   Eigen::Vector3d SumProjectedLidarPoints(const Eigen::Isometry3d& T_camera_lidar, std::size_t* count) const;
+
+  // The informative scene choice (core/scene_information.hpp): keeps the
+  // `count` camera frames (each with all its swathes, e.g. its range bands)
+  // whose used scenes constrain T_camera_lidar most, judged at T_camera_lidar
+  // with the visibility of the last refresh; frames with no used scene count
+  // as uninformative. Returns the choice over the frames (ascending time).
+  // Refresh the visibility afterwards. Not thread-safe (mutates).
+  InformativeChoice KeepMostInformative(const Eigen::Isometry3d& T_camera_lidar, int count,
+                                        const InformativeChoiceOptions& options = {});
+  // Distinct camera frames (image times) among the scenes.
+  int FrameCount() const;
 
   int UsedSceneCount() const;
   int SceneCount() const { return static_cast<int>(scenes_.size()); }

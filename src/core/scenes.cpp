@@ -15,8 +15,23 @@ bool ParseSwatheDirection(const std::string& name, SwatheDirection* direction) {
 
 const char* SwatheDirectionName(SwatheDirection direction) { return EnumName(kSwatheDirectionNames, direction); }
 
+bool ParseSceneChoice(const std::string& name, SceneChoice* choice) {
+  return ParseEnumName(kSceneChoiceNames, name, choice);
+}
+
+const char* SceneChoiceName(SceneChoice choice) { return EnumName(kSceneChoiceNames, choice); }
+
 bool SceneOptions::IsValid(std::string* why) const {
   if (scenes_per_camera < 1) return Invalid(why, "scenes_per_camera must be at least 1");
+  if (informative_pool_factor < 1 || informative_pool_factor > 20)
+    return Invalid(why, "informative_pool_factor must be within 1..20");
+  if (scenes_per_camera > 1000000 / informative_pool_factor)
+    return Invalid(why, "scenes_per_camera times informative_pool_factor must be at most 1000000");
+  if (!(auto_variance_ratio >= 0.0) || !std::isfinite(auto_variance_ratio))
+    return Invalid(why, "auto_variance_ratio must be 0 (a fixed count) or a factor above 1");
+  if (auto_variance_ratio > 0.0 && auto_variance_ratio <= 1.0)
+    return Invalid(why, "auto_variance_ratio must be 0 (a fixed count) or a factor above 1");
+  if (min_auto_scenes < 1) return Invalid(why, "min_auto_scenes must be at least 1");
   if (!(swathe_length_m > 0.0) || !std::isfinite(swathe_length_m))
     return Invalid(why, "swathe_length_m must be a positive number of metres");
   if (!(min_speed_mps >= 0.0) || !std::isfinite(min_speed_mps)) return Invalid(why, "min_speed_mps must be >= 0 (m/s)");
@@ -297,7 +312,7 @@ LidarSelectionReport SelectPairScenes(const SelectionContext& context, const std
       lidar.kind == LidarKind::k3d && frames.eligible_times.empty() && !frames.short_times.empty();
   const std::vector<TimeUs>& frame_times = short_swathes ? frames.short_times : frames.eligible_times;
   const std::vector<double>& frame_distances = short_swathes ? frames.short_distances : frames.eligible_distances;
-  const std::size_t wanted = static_cast<std::size_t>(context.options.scenes_per_camera);
+  const std::size_t wanted = static_cast<std::size_t>(context.options.CandidatesPerCamera());
   // Spread by time: standing frames share one distance.
   const std::vector<std::size_t> indices =
       short_swathes ? ThinEvenly(frames.short_times.size(), std::min(frames.short_times.size(), wanted)) : chosen;
@@ -344,7 +359,7 @@ SceneSelection SelectScenes(const Rig& rig, const Trajectory& trajectory,
     const CameraFrames frames = ClassifyFrames(context, TimesOf(image_times_us, camera.name), &camera_report);
     camera_report.eligible = static_cast<int>(frames.eligible_times.size());
     const std::vector<std::size_t> chosen =
-        SpreadByDistance(frames.eligible_distances, static_cast<std::size_t>(options.scenes_per_camera));
+        SpreadByDistance(frames.eligible_distances, static_cast<std::size_t>(options.CandidatesPerCamera()));
     camera_report.selected = static_cast<int>(chosen.size());
     selection.cameras.push_back(camera_report);
 

@@ -29,8 +29,31 @@ inline constexpr auto kSwatheDirectionNames = MakeEnumNames<SwatheDirection>(
 bool ParseSwatheDirection(const std::string& name, SwatheDirection* direction);
 const char* SwatheDirectionName(SwatheDirection direction);
 
+// How the S frames per camera are chosen: spread evenly by distance (the
+// paper), or the S most informative of a pool spread by distance (the pool's
+// swathes are built, then core/scene_information.hpp keeps the scenes whose
+// edges constrain the extrinsic most).
+enum class SceneChoice { kSpread, kInformative };
+inline constexpr auto kSceneChoiceNames = MakeEnumNames<SceneChoice>(
+    {{SceneChoice::kSpread, "spread"}, {SceneChoice::kInformative, "informative"}});
+bool ParseSceneChoice(const std::string& name, SceneChoice* choice);
+const char* SceneChoiceName(SceneChoice choice);
+
+// `--scenes auto`: the informative choice keeps the fewest frames whose
+// predicted variance is within this factor of the whole pool's (its sigma
+// within sqrt(2) of using every frame of the pool).
+inline constexpr double kAutoSceneVarianceRatio = 2.0;
+
 struct SceneOptions {
   int scenes_per_camera = 30;        // S camera frames per camera (the paper: 30)
+  SceneChoice choice = SceneChoice::kSpread;
+  // informative: the pool holds this many times S frames (spread by distance).
+  int informative_pool_factor = 3;
+  // informative, `--scenes auto`: > 0 keeps the fewest frames (at least
+  // min_auto_scenes, at most S) whose predicted variance is within this
+  // factor of the whole pool's; 0 keeps S.
+  double auto_variance_ratio = 0.0;
+  int min_auto_scenes = 8;
   double swathe_length_m = 10.0;     // L, distance travelled while the swathe is gathered (the paper: 10 m)
   SwatheDirection direction = SwatheDirection::kForward;
   // Frames taken while the base moves slower than this (m/s, averaged over
@@ -48,6 +71,10 @@ struct SceneOptions {
   double odometry_scale = 0.0;
 
   bool IsValid(std::string* why = nullptr) const;
+  // Frames per camera SelectScenes picks: S, or the informative choice's pool.
+  int CandidatesPerCamera() const {
+    return choice == SceneChoice::kInformative ? scenes_per_camera * informative_pool_factor : scenes_per_camera;
+  }
 };
 
 // One scan of a swathe: its time and its cached pose relative to the frame.

@@ -266,4 +266,46 @@ std::size_t SceneSwathe::RefreshVisibility(const Eigen::Isometry3d& T_camera_lid
   return projected;
 }
 
+Matrix6d SceneSwathe::AlignmentInformation(const Eigen::Isometry3d& T_camera_lidar) const {
+  Matrix6d information = Matrix6d::Zero();
+  if (image_.empty() || T_camerak_cameraj_.empty()) return information;
+  const Eigen::Matrix3d R_camera_lidar = T_camera_lidar.linear();
+  // Central differences one pixel either side need the bilinear footprint inside the image.
+  const float u_low = 1.0f, v_low = 1.0f;
+  const float u_high = static_cast<float>(image_.cols) - 2.0f, v_high = static_cast<float>(image_.rows) - 2.0f;
+  const double fx = projection_.fx, fy = projection_.fy;
+  for (std::size_t scan = 0; scan < T_camerak_cameraj_.size(); ++scan) {
+    const Eigen::Isometry3d T_camerak_lidar = T_camerak_cameraj_[scan] * T_camera_lidar;
+    const Eigen::Matrix3d R_camerak_cameraj = T_camerak_cameraj_[scan].linear();
+    const std::size_t begin = scan_begin_[scan], end = scan_begin_[scan + 1];
+    for (std::size_t i = begin; i < end; ++i) {
+      if (!visible_[i]) continue;
+      double contrast = 0.0;  // reflectance steps to the neighbours along the scan
+      if (i > begin) contrast += std::abs(reflectance01_[i] - reflectance01_[i - 1]);
+      if (i + 1 < end) contrast += std::abs(reflectance01_[i + 1] - reflectance01_[i]);
+      if (!(contrast > 0.0)) continue;
+      const Eigen::Vector3d p_lidar(x_[i], y_[i], z_[i]);
+      const Eigen::Vector3d c = T_camerak_lidar * p_lidar;
+      float u = 0.0f, v = 0.0f;
+      if (!ProjectFast(projection_, static_cast<float>(c.x()), static_cast<float>(c.y()),
+                       static_cast<float>(c.z()), &u, &v))
+        continue;
+      if (!(u >= u_low && u < u_high && v >= v_low && v < v_high)) continue;
+      const double di_du = 0.5 * (Sample(u + 1.0f, v) - Sample(u - 1.0f, v));
+      const double di_dv = 0.5 * (Sample(u, v + 1.0f) - Sample(u, v - 1.0f));
+      const double inverse_z = 1.0 / c.z();
+      // [dI/du dI/dv] * d(u, v)/dc for the pinhole projection.
+      const Eigen::RowVector3d di_dc(di_du * fx * inverse_z, di_dv * fy * inverse_z,
+                                     -(di_du * fx * c.x() + di_dv * fy * c.y()) * inverse_z * inverse_z);
+      const Eigen::RowVector3d di_drho = di_dc * R_camerak_cameraj;
+      // dc/dphi = -R_camerak_cameraj [R_camera_lidar p]x, so di/dphi = (R_camera_lidar p) x (di/drho)^T.
+      const Eigen::Vector3d di_dphi = (R_camera_lidar * p_lidar).cross(di_drho.transpose());
+      Vector6d j;
+      j << di_drho.transpose(), di_dphi;
+      information.noalias() += (contrast * j) * j.transpose();  // fixed-size outer product: vectorised
+    }
+  }
+  return information;
+}
+
 }  // namespace scenecal

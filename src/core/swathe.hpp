@@ -34,6 +34,7 @@
 #include <opencv2/core/mat.hpp>
 
 #include "core/camera_kernel.hpp"
+#include "core/geometry.hpp"
 #include "core/metric.hpp"
 #include "core/nelder_mead.hpp"
 #include "core/normalisation.hpp"
@@ -220,6 +221,17 @@ class SceneSwathe {
   // The same count split by scan (ScanCount() entries, in scan order), all
   // points, visible or not: which scans of the swathe reach the image at all.
   std::vector<std::size_t> CountProjectedPerScan(const Eigen::Isometry3d& T_camera_lidar) const;
+  // How much the scene constrains the extrinsic (the informative scene
+  // choice): sum over the visible points that project under T_camera_lidar of
+  //   w * j^T j,  j = [dI/du dI/dv] * d(u, v)/dc * dc/ddelta   (1 x 6),
+  // the Gauss-Newton information of aligning the image's edges, where delta =
+  // [rho; phi] moves T_camera_lidar (metres and radians, camera axes, rotation
+  // about the lidar origin), d(u, v)/dc the pinhole part of the projection,
+  // dI/du the image gradient there, and w the reflectance contrast of the
+  // point with its neighbours in its scan (a point on a uniform surface
+  // informs a multi-modal metric as little as one on a uniform image region).
+  Matrix6d AlignmentInformation(const Eigen::Isometry3d& T_camera_lidar) const;
+
   // Sum of the lidar-frame coordinates (metres) of those points; *count gets their number.
   Eigen::Vector3d SumProjectedLidarPoints(const Eigen::Isometry3d& T_camera_lidar, std::size_t* count) const;
 
