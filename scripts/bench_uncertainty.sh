@@ -12,7 +12,8 @@
 #
 # Prints a Markdown table per group and in all (OUT_DIR/table.md): runs, the share within the 95 % ellipsoid, the
 # median over axes and runs of 2 sigma / |error|, the verdicts, and the share of `good` verdicts whose error is
-# within 1 cm / 0.2 deg. Simulated data stay in OUT_DIR/data (reused). SCENECAL (build/bin/scenecal), DISTANCE
+# within 1 cm / 0.2 deg; then the scene-choice table of scripts/bench_scenes.sh in OUT_DIR/scenes (SCENES=0 skips
+# it). Simulated data stay in OUT_DIR/data (reused). SCENECAL (build/bin/scenecal), DISTANCE
 # (simulate --distance), TABLE_ONLY=1 (the table again from OUT_DIR/results.tsv).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -113,3 +114,9 @@ table = '\n'.join(lines) + '\n'
 open(sys.argv[2], 'w').write(table)
 print(table, end='')
 PY
+
+# The issue's second table: informative scenes against the spread by distance (SCENES=0 skips it).
+if [[ ${SCENES:-1} == 1 ]]; then
+  echo "bench_uncertainty: the scene-choice table (scripts/bench_scenes.sh $out/scenes)" >&2
+  SCENECAL="$scenecal" TABLE_ONLY="${TABLE_ONLY:-0}" scripts/bench_scenes.sh "$out/scenes"
+fi

@@ -401,7 +401,9 @@ TEST(InformativeScenes, ChoiceCoversTheWeakDirectionsBeforeRepeatingAStrongOne) 
   for (int i = 0; i < 4; ++i) pool.push_back(scene(0, 100.0));  // 0..3: x only, strongly
   for (int axis = 0; axis < 6; ++axis) pool.push_back(scene(axis, 1.0));  // 4..9: one direction each, weakly
   pool.push_back(Matrix6d::Zero());  // 10: nothing
-  const InformativeChoice choice = ChooseInformativeScenes(pool, 6, options);
+  InformativeChoiceOptions plain = options;
+  plain.separate_neighbours = false;
+  const InformativeChoice choice = ChooseInformativeScenes(pool, 6, plain);
   // One strong x scene (the first of the tie), then every other direction; not the weak x or a second strong x.
   EXPECT_EQ(choice.chosen, (std::vector<std::size_t>{0, 5, 6, 7, 8, 9}));
   EXPECT_GE(choice.predicted_variance_chosen, choice.predicted_variance_pool);
@@ -410,6 +412,12 @@ TEST(InformativeScenes, ChoiceCoversTheWeakDirectionsBeforeRepeatingAStrongOne) 
   Matrix6d spread = Matrix6d::Zero();
   for (const std::size_t s : {0, 3, 6, 9}) spread += unit.asDiagonal() * pool[s] * unit.asDiagonal();
   EXPECT_LT(spread.fullPivLu().rank(), 6);
+  // By default no two chosen scenes are neighbours in the pool while others are left: 0, then 5 (not 1 or 4),
+  // then 7 and 9 (6 and 8 sit beside 5 and 7), then the strong x at 2 or 3 before a neighbour of a chosen one.
+  const InformativeChoice apart = ChooseInformativeScenes(pool, 5, options);
+  EXPECT_EQ(apart.chosen, (std::vector<std::size_t>{0, 2, 5, 7, 9}));
+  const InformativeChoice packed = ChooseInformativeScenes(pool, 8, options);  // more than fit apart: neighbours too
+  EXPECT_EQ(packed.chosen.size(), 8u);
   // All of a pool when asked for more; the empty scene last.
   const InformativeChoice all = ChooseInformativeScenes(pool, 50, options);
   EXPECT_EQ(all.chosen.size(), pool.size());

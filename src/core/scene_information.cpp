@@ -40,13 +40,17 @@ InformativeChoice ChooseInformativeScenes(const std::vector<Matrix6d>& informati
   choice.predicted_variance_pool = TraceOfInverse(pool + prior);
 
   std::vector<bool> taken(n, false);
+  std::vector<bool> beside_taken(n, false);  // a pool neighbour of a chosen frame
   Matrix6d sum = prior;
   const std::size_t wanted = std::min(count, n);
   while (choice.chosen.size() < wanted) {
+    bool any_apart = false;
+    for (std::size_t s = 0; s < n; ++s) any_apart = any_apart || (!taken[s] && !beside_taken[s]);
     std::size_t best = n;
     double best_variance = std::numeric_limits<double>::infinity();
     for (std::size_t s = 0; s < n; ++s) {
       if (taken[s]) continue;
+      if (options.separate_neighbours && any_apart && beside_taken[s]) continue;
       const double variance = TraceOfInverse(sum + scaled[s]);
       // Strictly better only: ties keep the earlier scene (deterministic).
       if (best == n || variance < best_variance) {
@@ -55,6 +59,8 @@ InformativeChoice ChooseInformativeScenes(const std::vector<Matrix6d>& informati
       }
     }
     taken[best] = true;
+    if (best > 0) beside_taken[best - 1] = true;
+    if (best + 1 < n) beside_taken[best + 1] = true;
     sum += scaled[best];
     choice.chosen.push_back(best);
     if (options.max_variance_ratio > 0.0 && choice.chosen.size() >= options.min_count &&

@@ -30,6 +30,11 @@ struct InformativeChoiceOptions {
   // least min_count are chosen); `count` is then the most that are kept.
   double max_variance_ratio = 0.0;
   std::size_t min_count = 1;
+  // The pool is in drive order (spread by distance): a frame next to a chosen
+  // one is taken only once no other frame is left. Neighbouring frames see the
+  // same structure, so their information is not independent, and a choice
+  // crowded into a few stretches of the drive can lose the basin.
+  bool separate_neighbours = true;
 };
 
 struct InformativeChoice {

@@ -39,16 +39,19 @@ inline constexpr auto kSceneChoiceNames = MakeEnumNames<SceneChoice>(
 bool ParseSceneChoice(const std::string& name, SceneChoice* choice);
 const char* SceneChoiceName(SceneChoice choice);
 
-// `--scenes auto`: the informative choice keeps the fewest frames whose
-// predicted variance is within this factor of the whole pool's (its sigma
-// within sqrt(2) of using every frame of the pool).
+// `--scenes auto`: from the paper's S frames per camera spread by distance,
+// the informative choice keeps the fewest whose predicted variance is within
+// this factor of all S frames' (its sigma within sqrt(2)). The pool is the
+// spread set itself, not a larger one: picked from every frame of a drive,
+// the most informative frames crowd together and the answer got worse
+// (BENCHMARK.md, "Informative scenes").
 inline constexpr double kAutoSceneVarianceRatio = 2.0;
 
 struct SceneOptions {
   int scenes_per_camera = 30;        // S camera frames per camera (the paper: 30)
   SceneChoice choice = SceneChoice::kSpread;
   // informative: the pool holds this many times S frames (spread by distance).
-  int informative_pool_factor = 3;
+  int informative_pool_factor = 2;
   // informative, `--scenes auto`: > 0 keeps the fewest frames (at least
   // min_auto_scenes, at most S) whose predicted variance is within this
   // factor of the whole pool's; 0 keeps S.
