@@ -565,16 +565,20 @@ int RunCalibration(CalibrateArguments& args, ProcessGroup& group) {
   // there must not leave a result file without the report asked for.
   if (!args.report_dir.empty()) {
     CalibrationReportOptions report_options;
-    // Read through const nodes: yaml-cpp's non-const operator[] would add the keys it looks up.
+    // Read through const nodes (yaml-cpp's non-const operator[] would add the keys it looks up), and test
+    // IsDefined first: a missing key's node throws on any other question.
+    const auto scalar_or_empty = [](const YAML::Node& node) {
+      return node.IsDefined() && node.IsScalar() ? node.as<std::string>() : std::string();
+    };
     const YAML::Node& extra_read = extra;
-    if (const YAML::Node uncertainty = extra_read["uncertainty"]; uncertainty.IsMap()) {
+    if (const YAML::Node uncertainty = extra_read["uncertainty"]; uncertainty.IsDefined() && uncertainty.IsMap()) {
       for (const auto& entry : uncertainty) {
         const YAML::Node& lidar_entry = entry.second;
-        const YAML::Node verdict = lidar_entry["verdict"];
-        if (!verdict.IsScalar()) continue;
-        const YAML::Node reason = lidar_entry["verdict_reason"];
-        report_options.verdicts[entry.first.as<std::string>()] = {verdict.as<std::string>(),
-                                                                  reason.IsScalar() ? reason.as<std::string>() : ""};
+        if (!lidar_entry.IsMap()) continue;
+        const std::string verdict = scalar_or_empty(lidar_entry["verdict"]);
+        if (verdict.empty()) continue;  // no estimate for this lidar: the report says so
+        report_options.verdicts[entry.first.as<std::string>()] = {verdict,
+                                                                  scalar_or_empty(lidar_entry["verdict_reason"])};
       }
     }
     WriteCalibrationReport(args.report_dir, calibrator, outcome, dataset, report_options);
