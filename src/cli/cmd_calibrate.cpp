@@ -330,15 +330,15 @@ void RecordCommandSettings(const CalibrateArguments& args, const std::string& si
   }
 }
 
-// The uncertainty estimate and the basin check of the answer (into *result
-// and *extra), unless --no-uncertainty / --no-basin-check or the time budget
+// The uncertainty estimate and the basin check of the answer (into *result,
+// *extra and *verdicts), unless --no-uncertainty / --no-basin-check or the time budget
 // is spent: it counts from the command's `start`.
 // other_answers: auto's push-broom answer per lidar when the drift model then
 // replaced it (its offset enters the sigma).
 void CheckAnswer(const CalibrateArguments& args, const CalibrationOptions& options, Calibrator& calibrator,
                  std::chrono::steady_clock::time_point start,
                  const std::map<std::string, Eigen::Isometry3d>& other_answers, CalibrationResult* result,
-                 YAML::Node* extra) {
+                 YAML::Node* extra, LidarVerdicts* verdicts) {
   const auto budget_spent = [&] {
     const double elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return args.time_budget_s > 0.0 && elapsed_s >= args.time_budget_s;
@@ -367,7 +367,7 @@ void CheckAnswer(const CalibrateArguments& args, const CalibrationOptions& optio
   if (!local_estimates.empty()) {
     YAML::Node uncertainty = (*extra)["uncertainty"];
     ReportErrorEstimate(local_estimates, basin_checks, other_answers, options.motion_correction, result,
-                        &uncertainty);
+                        &uncertainty, verdicts);
   }
 }
 
@@ -550,7 +550,8 @@ int RunCalibration(CalibrateArguments& args, ProcessGroup& group) {
   }
   result.settings["trajectory_source"] = TrajectorySourceName(dataset.rig.trajectory_source);
   YAML::Node extra(YAML::NodeType::Map);
-  CheckAnswer(args, solve->options, calibrator, start, replaced_answers, &result, &extra);
+  CalibrationReportOptions report_options;
+  CheckAnswer(args, solve->options, calibrator, start, replaced_answers, &result, &extra, &report_options.verdicts);
   result.timings_s["total"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   for (const std::string& warning : result.warnings) spdlog::warn("{}", warning);
   // Each frame's drift correction: what the odometry did over its swathe, as the images saw it.
@@ -564,23 +565,6 @@ int RunCalibration(CalibrateArguments& args, ProcessGroup& group) {
   // The report first: it takes a while, and an interruption or a failure
   // there must not leave a result file without the report asked for.
   if (!args.report_dir.empty()) {
-    CalibrationReportOptions report_options;
-    // Read through const nodes (yaml-cpp's non-const operator[] would add the keys it looks up), and test
-    // IsDefined first: a missing key's node throws on any other question.
-    const auto scalar_or_empty = [](const YAML::Node& node) {
-      return node.IsDefined() && node.IsScalar() ? node.as<std::string>() : std::string();
-    };
-    const YAML::Node& extra_read = extra;
-    if (const YAML::Node uncertainty = extra_read["uncertainty"]; uncertainty.IsDefined() && uncertainty.IsMap()) {
-      for (const auto& entry : uncertainty) {
-        const YAML::Node& lidar_entry = entry.second;
-        if (!lidar_entry.IsMap()) continue;
-        const std::string verdict = scalar_or_empty(lidar_entry["verdict"]);
-        if (verdict.empty()) continue;  // no estimate for this lidar: the report says so
-        report_options.verdicts[entry.first.as<std::string>()] = {verdict,
-                                                                  scalar_or_empty(lidar_entry["verdict_reason"])};
-      }
-    }
     WriteCalibrationReport(args.report_dir, calibrator, outcome, dataset, report_options);
   }
   io::WriteCalibrationResult(args.output, result, extra);

@@ -4,10 +4,9 @@
 // the input (the outcome carries none), so this reads no files but writes DIR.
 #pragma once
 
-#include <map>
 #include <string>
-#include <utility>
 
+#include "cli/uncertainty_report.hpp"
 #include "core/calibrator.hpp"
 #include "io/dataset.hpp"
 
@@ -17,8 +16,8 @@ struct CalibrationReportOptions {
   int slice_samples = 11;           // per DoF and slice set (~11 s in all for alt on the default dataset)
   int slice_alternations = 4;       // alt: slice at most this many alternations
   int overlay_scenes_per_pair = 2;  // scenes with the most projected points
-  // Per lidar: the uncertainty's verdict and its reason (the result's `uncertainty` block).
-  std::map<std::string, std::pair<std::string, std::string>> verdicts;
+  // Per lidar: the uncertainty's verdict and its reason (ReportErrorEstimate's).
+  LidarVerdicts verdicts;
 };
 
 // Builds and writes DIR/report.html and its PNGs from the calibrator that

@@ -180,7 +180,7 @@ YAML::Node ReportBasinCheck(Calibrator& calibrator, double offset_deg, Calibrati
 
 void ReportErrorEstimate(const std::vector<LidarUncertainty>& estimates, const std::vector<LidarBasinCheck>& checks,
                          const std::map<std::string, Eigen::Isometry3d>& other_answers, bool trajectory_drifts,
-                         CalibrationResult* result, YAML::Node* uncertainty) {
+                         CalibrationResult* result, YAML::Node* uncertainty, LidarVerdicts* verdicts) {
   const UncertaintyOptions units;
   const double deg = 180.0 / M_PI;
   for (std::size_t i = 0; i < estimates.size() && i < result->lidars.size(); ++i) {
@@ -207,6 +207,7 @@ void ReportErrorEstimate(const std::vector<LidarUncertainty>& estimates, const s
         estimate.share_basin, estimate.share_trajectory);
     entry["verdict"] = VerdictName(estimate.verdict);
     if (!estimate.verdict_reason.empty()) entry["verdict_reason"] = estimate.verdict_reason;
+    (*verdicts)[lidar.lidar] = {VerdictName(estimate.verdict), estimate.verdict_reason};
     entry["weakest_direction_1sigma_d"] = Numbers(estimate.weakest_direction.data(), 6);
     const Vector6d& s = estimate.sigma_tuple;
     spdlog::info("lidar {}: 1-sigma of the result x {:.2f} y {:.2f} z {:.2f} cm, roll {:.3f} pitch {:.3f} yaw {:.3f} "

@@ -8,6 +8,7 @@
 
 #include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <yaml-cpp/yaml.h>
@@ -17,6 +18,9 @@
 #include "core/uncertainty.hpp"
 
 namespace scenecal::cli {
+
+// Per lidar: its verdict ("good", "weak", "unreliable") and the reason, empty when good.
+using LidarVerdicts = std::map<std::string, std::pair<std::string, std::string>>;
 
 // Estimates every lidar's uncertainty at the result, on the calibrator's pair
 // costs, and adds warnings; returns the `uncertainty` mapping (by lidar name)
@@ -37,9 +41,10 @@ YAML::Node ReportBasinCheck(Calibrator& calibrator, double offset_deg, Calibrati
 // estimates, the basin checks (empty: none ran) and other answers of the same
 // data under another trajectory model (by lidar); sets each lidar's `sigma`
 // and `covariance`, logs the verdict, adds a warning for any but `good`, and
-// adds `sigma`, `verdict` and the parts to each lidar's entry of *uncertainty.
+// adds `sigma`, `verdict` and the parts to each lidar's entry of *uncertainty;
+// *verdicts gets each estimated lidar's verdict (for the report).
 void ReportErrorEstimate(const std::vector<LidarUncertainty>& estimates, const std::vector<LidarBasinCheck>& checks,
                          const std::map<std::string, Eigen::Isometry3d>& other_answers, bool trajectory_drifts,
-                         CalibrationResult* result, YAML::Node* uncertainty);
+                         CalibrationResult* result, YAML::Node* uncertainty, LidarVerdicts* verdicts);
 
 }  // namespace scenecal::cli
