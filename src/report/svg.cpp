@@ -81,6 +81,35 @@ std::string Axes(const Scale& sx, const std::vector<double>& x_ticks, const Scal
   return out;
 }
 
+// The frame of a plot with categories along x (box and interval plots): its
+// size and margins, the scales (y over `y_range`, x one unit per category),
+// and the opening of its <svg> with the title and the axes.
+struct CategoryFrame {
+  int width = 0, height = 0;
+  double left = 0, right = 0, top = 0, bottom = 0;
+  std::vector<double> y_ticks;
+  Scale sx{}, sy{};
+  std::string open;  // <svg ...>, the title and the axes
+};
+
+CategoryFrame MakeCategoryFrame(int width_px, int height_px, const std::string& title, const std::string& y_label,
+                                std::size_t categories, const Range& y_range) {
+  CategoryFrame f;
+  f.width = std::max(160, width_px);
+  f.height = std::max(120, height_px);
+  f.left = 62;
+  f.right = f.width - 12.0;
+  f.top = title.empty() ? 10.0 : 26.0;
+  f.bottom = f.height - 40.0;  // room for the category labels
+  f.y_ticks = NiceTicks(y_range.low, y_range.high, std::max(3, (f.height - 60) / 45));
+  f.sy = {f.y_ticks.front(), f.y_ticks.back(), f.bottom, f.top};
+  f.sx = {0.0, static_cast<double>(std::max<std::size_t>(1, categories)), f.left, f.right};
+  f.open = SvgOpen(f.width, f.height);
+  if (!title.empty()) f.open += Text(0.5 * (f.left + f.right), 17, title, "middle", 12, " font-weight=\"bold\"");
+  f.open += Axes(f.sx, {}, f.sy, f.y_ticks, "", y_label, f.height, false);
+  return f;
+}
+
 std::string MarkerShape(Marker marker, double x, double y, const std::string& colour) {
   switch (marker) {
     case Marker::kCircle:
@@ -309,9 +338,6 @@ BoxStatistics ComputeBoxStatistics(std::vector<double> values) {
 }
 
 std::string RenderBoxPlot(const BoxPlot& plot) {
-  const int width = std::max(160, plot.width_px), height = std::max(120, plot.height_px);
-  const double left = 62, right = width - 12.0, top = plot.title.empty() ? 10.0 : 26.0;
-  const double bottom = height - 40.0;  // room for the category labels
   const std::size_t categories = std::max<std::size_t>(1, plot.categories.size());
   const std::size_t series_count = std::max<std::size_t>(1, plot.series.size());
 
@@ -332,14 +358,12 @@ std::string RenderBoxPlot(const BoxPlot& plot) {
     }
   }
   if (y_range.Empty()) y_range = {0.0, 1.0};
-  const std::vector<double> y_ticks = NiceTicks(y_range.low, y_range.high, std::max(3, (height - 60) / 45));
-  const Scale sy{y_ticks.front(), y_ticks.back(), bottom, top};
-  const Scale sx{0.0, static_cast<double>(categories), left, right};
-
-  std::string out = SvgOpen(width, height);
-  if (!plot.title.empty()) out += Text(0.5 * (left + right), 17, plot.title, "middle", 12, " font-weight=\"bold\"");
-  out += Axes(sx, {}, sy, y_ticks, "", plot.y_label, height, false);
-  const double category_px = (right - left) / static_cast<double>(categories);
+  const CategoryFrame frame =
+      MakeCategoryFrame(plot.width_px, plot.height_px, plot.title, plot.y_label, plot.categories.size(), y_range);
+  const double right = frame.right, top = frame.top, bottom = frame.bottom;
+  const Scale &sx = frame.sx, &sy = frame.sy;
+  std::string out = frame.open;
+  const double category_px = (right - frame.left) / static_cast<double>(categories);
   const double box_px = std::min(40.0, 0.75 * category_px / static_cast<double>(series_count));
   for (std::size_t c = 0; c < plot.categories.size(); ++c) {
     const double centre = sx(static_cast<double>(c) + 0.5);
@@ -391,9 +415,6 @@ std::string RenderBoxPlot(const BoxPlot& plot) {
 }
 
 std::string RenderIntervalPlot(const IntervalPlot& plot) {
-  const int width = std::max(160, plot.width_px), height = std::max(120, plot.height_px);
-  const double left = 62, right = width - 12.0, top = plot.title.empty() ? 10.0 : 26.0;
-  const double bottom = height - 40.0;  // room for the category labels
   const std::size_t categories = std::max<std::size_t>(1, plot.categories.size());
   const auto finite = [](const IntervalCategory& c) {
     return std::isfinite(c.low) && std::isfinite(c.high) && std::isfinite(c.centre);
@@ -414,13 +435,11 @@ std::string RenderIntervalPlot(const IntervalPlot& plot) {
   }
   if (y_range.Empty() || y_range.low == y_range.high) y_range = {-1.0, 1.0};
   y_range.Include(y_range.high + 0.5 * (y_range.high - y_range.low));  // room for the legend above the bars
-  const std::vector<double> y_ticks = NiceTicks(y_range.low, y_range.high, std::max(3, (height - 60) / 45));
-  const Scale sy{y_ticks.front(), y_ticks.back(), bottom, top};
-  const Scale sx{0.0, static_cast<double>(categories), left, right};
-
-  std::string out = SvgOpen(width, height);
-  if (!plot.title.empty()) out += Text(0.5 * (left + right), 17, plot.title, "middle", 12, " font-weight=\"bold\"");
-  out += Axes(sx, {}, sy, y_ticks, "", plot.y_label, height, false);
+  const CategoryFrame frame =
+      MakeCategoryFrame(plot.width_px, plot.height_px, plot.title, plot.y_label, plot.categories.size(), y_range);
+  const double left = frame.left, right = frame.right, top = frame.top, bottom = frame.bottom;
+  const Scale &sx = frame.sx, &sy = frame.sy;
+  std::string out = frame.open;
   const std::string colour = EscapeXml(plot.colour);
   const bool any_point = std::any_of(plot.categories.begin(), plot.categories.end(),
                                      [](const IntervalCategory& c) { return c.point.has_value(); });
