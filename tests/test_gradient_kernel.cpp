@@ -82,6 +82,34 @@ Eigen::Matrix3d Skew(const Eigen::Vector3d& w) {
   return m;
 }
 
+// The lidar points of t's scans in swathe order, as Build keeps them (within
+// the range limits, scan by scan, Build's test term for term); *scan_of_point
+// gets each one's scan.
+std::vector<Eigen::Vector3d> SwathePoints(const TestSwathe& t, std::vector<std::size_t>* scan_of_point) {
+  std::vector<Eigen::Vector3d> points;
+  scan_of_point->clear();
+  const SwatheOptions limits;
+  for (std::size_t s = 0; s < t.scans.size(); ++s) {
+    for (const LidarPoint& p : t.scans[s].points) {
+      const double range2 = static_cast<double>(p.x) * p.x + static_cast<double>(p.y) * p.y +
+                            static_cast<double>(p.z) * p.z;
+      if (range2 < limits.min_range_m * limits.min_range_m || range2 > limits.max_range_m * limits.max_range_m)
+        continue;
+      points.emplace_back(p.x, p.y, p.z);
+      scan_of_point->push_back(s);
+    }
+  }
+  return points;
+}
+
+// T_camerak_cameraj of MakeSwathe's scans: with T_base_camera = identity, Build's
+// T_camera_base * T_basek_basej * T_base_camera is each scan's pose itself.
+std::vector<Eigen::Isometry3d> SwatheScanPoses(const TestSwathe& t) {
+  std::vector<Eigen::Isometry3d> T_camerak_cameraj;
+  for (int j = 0; j < static_cast<int>(t.scans.size()); ++j) T_camerak_cameraj.push_back(test::RandomSwatheScanPose(j));
+  return T_camerak_cameraj;
+}
+
 // The per-point reference of SampleGradientSum. The swathe's scans and their
 // poses are those of MakeSwathe: the test rebuilds T_camerak_cameraj the way
 // SceneSwathe::Build does (T_base_camera = identity here).
@@ -90,21 +118,8 @@ Vector6d ReferenceGradientSum(const TestSwathe& t, const std::vector<Eigen::Isom
                               const Eigen::Vector3d& pivot_source, const CostGradient& dcost) {
   const SceneSwathe& swathe = t.swathe;
   const ProjectionParams params = MakeProjectionParams(t.camera.model, 0.5, SwatheOptions{}.min_depth_m);
-  // Lidar points in swathe order (Build keeps the points within the range limits, scan by scan).
-  std::vector<Eigen::Vector3d> points;
   std::vector<std::size_t> scan_of_point;
-  for (std::size_t s = 0; s < t.scans.size(); ++s) {
-    for (const LidarPoint& p : t.scans[s].points) {
-      // Build's test, term for term.
-      const double range2 = static_cast<double>(p.x) * p.x + static_cast<double>(p.y) * p.y +
-                            static_cast<double>(p.z) * p.z;
-      const SwatheOptions limits;
-      if (range2 < limits.min_range_m * limits.min_range_m || range2 > limits.max_range_m * limits.max_range_m)
-        continue;
-      points.emplace_back(p.x, p.y, p.z);
-      scan_of_point.push_back(s);
-    }
-  }
+  const std::vector<Eigen::Vector3d> points = SwathePoints(t, &scan_of_point);
   EXPECT_EQ(points.size(), swathe.PointCount());
   const cv::Mat& image = swathe.Image();
   const Eigen::Vector3d pivot_camera = T_camera_lidar * pivot_source;
@@ -163,13 +178,7 @@ TEST(GradientKernel, SampleGradientSumMatchesThePerPointReference) {
     // Some points hidden: the kernel must use the same visible set as ForEachProjected.
     ASSERT_GT(t.swathe.RefreshVisibility(Eigen::Isometry3d::Identity(), SwatheOptions{}), 1000u);
     ASSERT_LT(t.swathe.VisibleCount(), t.swathe.PointCount());
-    std::vector<Eigen::Isometry3d> T_camerak_cameraj;
-    for (int j = 0; j < static_cast<int>(t.scans.size()); ++j) {
-      Vector6d tuple;
-      tuple << 0.05 * j, -0.02 * j, 0.3 * j, RadiansFromDegrees(0.4 * j), RadiansFromDegrees(-0.3 * j),
-          RadiansFromDegrees(0.2 * j);
-      T_camerak_cameraj.push_back(TransformFromTuple(tuple));
-    }
+    const std::vector<Eigen::Isometry3d> T_camerak_cameraj = SwatheScanPoses(t);
     HistogramOptions options;
     options.binning = Binning::kBSpline;
     options.reflectance_bins = 24;
@@ -214,27 +223,10 @@ TEST(GradientKernel, SampleGradientSumMatchesThePerPointReference) {
 TEST(GradientKernel, AlignmentInformationMatchesThePerPointReference) {
   TestSwathe t = MakeSwathe(CameraModelKind::kPinhole, 29u);
   ASSERT_GT(t.swathe.RefreshVisibility(Eigen::Isometry3d::Identity(), SwatheOptions{}), 1000u);
-  std::vector<Eigen::Isometry3d> T_camerak_cameraj;
-  for (int j = 0; j < static_cast<int>(t.scans.size()); ++j) {
-    Vector6d tuple;
-    tuple << 0.05 * j, -0.02 * j, 0.3 * j, RadiansFromDegrees(0.4 * j), RadiansFromDegrees(-0.3 * j),
-        RadiansFromDegrees(0.2 * j);
-    T_camerak_cameraj.push_back(TransformFromTuple(tuple));
-  }
+  const std::vector<Eigen::Isometry3d> T_camerak_cameraj = SwatheScanPoses(t);
   const ProjectionParams params = MakeProjectionParams(t.camera.model, 0.5, SwatheOptions{}.min_depth_m);
-  std::vector<Eigen::Vector3d> points;
   std::vector<std::size_t> scan_of_point;
-  for (std::size_t s = 0; s < t.scans.size(); ++s) {
-    for (const LidarPoint& p : t.scans[s].points) {
-      const double range2 = static_cast<double>(p.x) * p.x + static_cast<double>(p.y) * p.y +
-                            static_cast<double>(p.z) * p.z;
-      const SwatheOptions limits;
-      if (range2 < limits.min_range_m * limits.min_range_m || range2 > limits.max_range_m * limits.max_range_m)
-        continue;
-      points.emplace_back(p.x, p.y, p.z);
-      scan_of_point.push_back(s);
-    }
-  }
+  const std::vector<Eigen::Vector3d> points = SwathePoints(t, &scan_of_point);
   ASSERT_EQ(points.size(), t.swathe.PointCount());
   const std::span<const float> reflectance = t.swathe.Points().reflectance01;
   const cv::Mat& image = t.swathe.Image();

@@ -56,9 +56,17 @@ struct TestSwathe {
   SceneSwathe swathe;
 };
 
+// Scan j's pose from the frame's in MakeRandomSwathe: the tuple j * (5 cm,
+// -2 cm, 30 cm, 0.4, -0.3, 0.2 deg).
+inline Eigen::Isometry3d RandomSwatheScanPose(int j) {
+  Vector6d tuple;
+  tuple << 0.05 * j, -0.02 * j, 0.3 * j, RadiansFromDegrees(0.4 * j), RadiansFromDegrees(-0.3 * j),
+      RadiansFromDegrees(0.2 * j);
+  return TransformFromTuple(tuple);
+}
+
 // A swathe of spec.scans random scans seen by `camera` in `image` (CV_32F,
-// camera-sized); scan j at the pose tuple j * (5 cm, -2 cm, 30 cm, 0.4, -0.3,
-// 0.2 deg) from the frame's.
+// camera-sized); scan j at RandomSwatheScanPose(j) from the frame.
 inline TestSwathe MakeRandomSwathe(const CameraModel& camera, const cv::Mat& image, std::uint32_t seed,
                                    const RandomSwatheSpec& spec = {}) {
   TestSwathe t;
@@ -73,10 +81,7 @@ inline TestSwathe MakeRandomSwathe(const CameraModel& camera, const cv::Mat& ima
                                         spec.spread_y));
   std::vector<const LidarScan*> scan_pointers;
   for (int j = 0; j < spec.scans; ++j) {
-    Vector6d tuple;
-    tuple << 0.05 * j, -0.02 * j, 0.3 * j, RadiansFromDegrees(0.4 * j), RadiansFromDegrees(-0.3 * j),
-        RadiansFromDegrees(0.2 * j);
-    scene.scans.push_back({j, TransformFromTuple(tuple)});
+    scene.scans.push_back({j, RandomSwatheScanPose(j)});
     scan_pointers.push_back(&t.scans[static_cast<std::size_t>(j)]);
   }
   t.swathe = SceneSwathe::Build(scene, t.camera, image, scan_pointers, SwatheOptions{}, NormalisationOptions{});
