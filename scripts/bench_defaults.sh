@@ -40,26 +40,12 @@ results="$out/results.tsv"
 [[ ${TABLE_ONLY:-0} == 1 ]] && presets=""  # the table again from $results, no run
 [[ ${TABLE_ONLY:-0} == 1 ]] || printf 'preset\todometry\tworld\tsetting\tstart\tlidar\ttranslation_m\trotation_deg\tseconds\tmax_rss_kb\tchosen\n' >"$results"
 
-simulate() {  # preset odometry world -> prints the dataset folder
-  local preset=$1 odometry=$2 world=$3
-  local data="$out/data/${preset}_${odometry}_w${world}"
-  if [[ ! -f "$data/rig.yaml" ]]; then
-    local args=(simulate --preset "$preset" --seed "$world" --output "$data")
-    [[ $odometry == exact ]] && args+=(--odometry-noise 0)
-    [[ -n ${DISTANCE:-} ]] && args+=(--distance "$DISTANCE")
-    echo "bench_defaults: simulating $data" >&2
-    "$scenecal" "${args[@]}" >"$data.simulate.log" 2>&1 || { cat "$data.simulate.log" >&2; exit 1; }
-    if [[ $source_mode == unknown ]]; then
-      grep -v '^trajectory_source:' "$data/rig.yaml" >"$data/rig.yaml.tmp" && mv "$data/rig.yaml.tmp" "$data/rig.yaml"
-    fi
-  fi
-  echo "$data"
-}
+source scripts/bench_simulate.sh
 
 for preset in $presets; do
   for odometry in $odometries; do
     for world in $worlds; do
-      data=$(simulate "$preset" "$odometry" "$world")
+      data=$(simulate_once bench_defaults "$preset" "$odometry" "$world" "$source_mode")
       for setting in $settings; do
         for start in $starts; do
           tag="${preset}_${odometry}_w${world}_${setting}_${start}"

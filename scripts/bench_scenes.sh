@@ -10,8 +10,8 @@
 #
 # PRESETS ("robotcar trinocular"), ODOMETRY ("exact"), WORLDS ("1 2 3"), STARTS ("1 2 3"), FULL (30), HALF (15),
 # POOL (2: the informative pool of HALF scenes is the FULL spread set), each start PERTURB_T m / PERTURB_R deg
-# (0.1, 3) from the truth. Resumable (OUT_DIR/results.tsv); TABLE_ONLY=1 prints the table again. Simulated data
-# stay in OUT_DIR/data (reused).
+# (0.1, 3) from the truth, DISTANCE (simulate --distance). Resumable (OUT_DIR/results.tsv); TABLE_ONLY=1 prints
+# the table again. Simulated data stay in OUT_DIR/data (reused).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=${1:-out/bench_scenes}
@@ -26,6 +26,7 @@ pool=${POOL:-2}
 perturb_t=${PERTURB_T:-0.1}
 perturb_r=${PERTURB_R:-3}
 
+source scripts/bench_simulate.sh
 [[ -x "$scenecal" ]] || { echo "bench_scenes: $scenecal not built (scripts/build.sh)" >&2; exit 2; }
 mkdir -p "$out/data" "$out/runs"
 results="$out/results.tsv"
@@ -38,13 +39,7 @@ configs=("spread_${full}:--scenes $full" "spread_${half}:--scenes $half"
 for preset in $presets; do
   for odometry in $odometries; do
     for world in $worlds; do
-      data="$out/data/${preset}_${odometry}_w${world}"
-      if [[ ! -f "$data/rig.yaml" ]]; then
-        args=(simulate --preset "$preset" --seed "$world" --output "$data")
-        [[ $odometry == exact ]] && args+=(--odometry-noise 0)
-        echo "bench_scenes: simulating $data" >&2
-        "$scenecal" "${args[@]}" >"$data.simulate.log" 2>&1 || { cat "$data.simulate.log" >&2; exit 1; }
-      fi
+      data=$(simulate_once bench_scenes "$preset" "$odometry" "$world" given)
       for start in $starts; do
         for config in "${configs[@]}"; do
           method=${config%%:*}

@@ -26,6 +26,7 @@ starts=${STARTS:-"1 2"}
 perturb_t=${PERTURB_T:-0.1}
 perturb_r=${PERTURB_R:-3}
 
+source scripts/bench_simulate.sh
 [[ -x "$scenecal" ]] || { echo "bench_uncertainty: $scenecal not built (scripts/build.sh)" >&2; exit 2; }
 mkdir -p "$out/data" "$out/runs"
 results="$out/results.tsv"
@@ -36,15 +37,7 @@ results="$out/results.tsv"
 for preset in $presets; do
   for odometry in $odometries; do
     for world in $worlds; do
-      data="$out/data/${preset}_${odometry}_w${world}"
-      if [[ ! -f "$data/rig.yaml" ]]; then
-        args=(simulate --preset "$preset" --seed "$world" --output "$data")
-        [[ $odometry == exact ]] && args+=(--odometry-noise 0)
-        [[ -n ${DISTANCE:-} ]] && args+=(--distance "$DISTANCE")
-        echo "bench_uncertainty: simulating $data" >&2
-        "$scenecal" "${args[@]}" >"$data.simulate.log" 2>&1 || { cat "$data.simulate.log" >&2; exit 1; }
-        grep -v '^trajectory_source:' "$data/rig.yaml" >"$data/rig.yaml.tmp" && mv "$data/rig.yaml.tmp" "$data/rig.yaml"
-      fi
+      data=$(simulate_once bench_uncertainty "$preset" "$odometry" "$world" unknown)
       for start in $starts; do
         tag="${preset}_${odometry}_w${world}_${start}"
         grep -q "^${preset}	${odometry}	${world}	${start}	" "$results" && continue  # done in an earlier run
