@@ -27,9 +27,7 @@ bool SceneOptions::IsValid(std::string* why) const {
     return Invalid(why, "informative_pool_factor must be within 1..20");
   if (scenes_per_camera > 1000000 / informative_pool_factor)
     return Invalid(why, "scenes_per_camera times informative_pool_factor must be at most 1000000");
-  if (!(auto_variance_ratio >= 0.0) || !std::isfinite(auto_variance_ratio))
-    return Invalid(why, "auto_variance_ratio must be 0 (a fixed count) or a factor above 1");
-  if (auto_variance_ratio > 0.0 && auto_variance_ratio <= 1.0)
+  if (!(auto_variance_ratio == 0.0 || (auto_variance_ratio > 1.0 && std::isfinite(auto_variance_ratio))))
     return Invalid(why, "auto_variance_ratio must be 0 (a fixed count) or a factor above 1");
   if (min_auto_scenes < 1) return Invalid(why, "min_auto_scenes must be at least 1");
   if (!(swathe_length_m > 0.0) || !std::isfinite(swathe_length_m))
