@@ -365,6 +365,11 @@ TEST_F(CalibrateOnSimulation, CliExitCodes) {
                    &number_text),
             2);
   EXPECT_NE(number_text.find("--scene-choice"), std::string::npos) << number_text;
+  EXPECT_EQ(RunCli("calibrate " + DatasetPath().string() + " --output " + output.string() +
+                       " --scene-choice informative --scene-choice-after -1",
+                   &number_text),
+            2);
+  EXPECT_NE(number_text.find("--scene-choice-after"), std::string::npos) << number_text;
   // The stages spread over more alternations than there are: exit 2, both counts named.
   std::string stage_text;
   EXPECT_EQ(RunCli("calibrate " + DatasetPath().string() + " --output " + output.string() +
@@ -793,11 +798,12 @@ TEST_F(CalibrateOnSimulation, RangeSplitScoresNearAndFarPointsAsTwoScenes) {
 
 // The informative choice keeps whole frames (both range bands), as many as asked, or with a count chosen by
 // the data between its bounds; the settings say so.
-TEST_F(CalibrateOnSimulation, InformativeChoiceKeepsWholeFramesAndAutoChoosesTheCount) {
+TEST_F(CalibrateOnSimulation, InformativeChoiceKeepsWholeFramesAfterTheFirstStageAndAutoChoosesTheCount) {
   const io::Dataset dataset = io::OpenDataset(DatasetPath());
   CalibrationOptions options;
   options.scheme = CalibrationScheme::kJoint;
   options.range_split_m = 5.0;
+  options.stages = {{1.0, 0.004, 0}, {0.3, 0.0, 0}};  // two short stages: the choice comes between them
   options.scenes.scenes_per_camera = 3;
   options.scenes.choice = SceneChoice::kInformative;
   options.scenes.informative_pool_factor = 2;
@@ -805,27 +811,45 @@ TEST_F(CalibrateOnSimulation, InformativeChoiceKeepsWholeFramesAndAutoChoosesThe
   const Eigen::Isometry3d T_base_lidar = dataset.ground_truth->T_base_lidar.at("lms_rear");
   std::vector<std::string> messages;
   const auto collect = [&](const std::string& message) { messages.push_back(message); };
+  const auto said = [&](const std::string& text) {
+    return std::find_if(messages.begin(), messages.end(),
+                        [&](const std::string& m) { return m.find(text) != std::string::npos; });
+  };
   {
     Calibrator calibrator(input, options, collect);
     ASSERT_EQ(calibrator.Status(), CalibrationStatus::kSuccess) << calibrator.Why();
+    EXPECT_EQ(said("most informative"), messages.end());  // the first stage runs on the whole pool
+    const CalibrationOutcome outcome = calibrator.Solve();
+    ASSERT_EQ(outcome.status, CalibrationStatus::kSuccess) << outcome.why;
     PairCost* left = calibrator.PairAt("left", "lms_rear", T_base_lidar);
     ASSERT_NE(left, nullptr);
     EXPECT_EQ(left->FrameCount(), 3);
     EXPECT_EQ(left->SceneCount(), 6);  // a near and a far band per kept frame
   }
-  const auto said = [&](const std::string& text) {
-    return std::any_of(messages.begin(), messages.end(),
-                       [&](const std::string& m) { return m.find(text) != std::string::npos; });
-  };
+  const auto chosen = said("left/lms_rear: kept the 3 most informative of 6 frames");
+  ASSERT_NE(chosen, messages.end());
+  EXPECT_LT(said("joint lms_rear: start"), chosen);
   const auto scene_choice_setting = [&] {
     CalibrationResult result;
     RecordCommonSettings(options, &result);
     return result.settings.at("scene_choice");
   };
-  EXPECT_TRUE(said("left/lms_rear: kept the 3 most informative of 6 frames"));
-  EXPECT_EQ(scene_choice_setting(), "informative of 6 per camera");
+  EXPECT_EQ(scene_choice_setting(),
+            "informative of 6 per camera, chosen after the first 1 stage(s), which use the whole pool");
+  // alt's lower levels may run on other ranks: it chooses at the initial guess, as does a one-stage schedule.
+  EXPECT_EQ(InformativeChoiceStage(options), 1);
+  options.scheme = CalibrationScheme::kAlt;
+  EXPECT_EQ(InformativeChoiceStage(options), 0);
+  options.scheme = CalibrationScheme::kOnce;
+  options.scenes.informative_after_stages = 5;
+  EXPECT_EQ(InformativeChoiceStage(options), 1);  // at most all stages but the last
+  options.stages = {{1.0, 0.0, 0}};
+  EXPECT_EQ(InformativeChoiceStage(options), 0);
 
+  // --scenes auto, chosen at the initial guess: the count from the data.
   messages.clear();
+  options.scheme = CalibrationScheme::kJoint;
+  options.scenes.informative_after_stages = 0;
   options.scenes.scenes_per_camera = 4;
   options.scenes.auto_variance_ratio = kAutoSceneVarianceRatio;
   options.scenes.min_auto_scenes = 2;
@@ -836,13 +860,20 @@ TEST_F(CalibrateOnSimulation, InformativeChoiceKeepsWholeFramesAndAutoChoosesThe
   ASSERT_NE(left, nullptr);
   EXPECT_GE(left->FrameCount(), 2);
   EXPECT_LE(left->FrameCount(), 4);
-  EXPECT_TRUE(said("left/lms_rear: kept the " + std::to_string(left->FrameCount()) + " most informative of 8"));
-  EXPECT_NE(scene_choice_setting().find("within 2x of the whole pool's (at least 2)"), std::string::npos)
+  EXPECT_NE(said("left/lms_rear: kept the " + std::to_string(left->FrameCount()) + " most informative of 8"),
+            messages.end());
+  EXPECT_NE(scene_choice_setting().find("chosen at the initial guess, as many as bring the predicted variance "
+                                        "within 2x of the whole pool's (at least 2)"),
+            std::string::npos)
       << scene_choice_setting();
   options.scenes.auto_variance_ratio = 0.5;
   std::string why;
   EXPECT_FALSE(options.IsValid(&why));
   EXPECT_NE(why.find("auto_variance_ratio"), std::string::npos) << why;
+  options.scenes.auto_variance_ratio = 0.0;
+  options.scenes.informative_after_stages = -1;
+  EXPECT_FALSE(options.IsValid(&why));
+  EXPECT_NE(why.find("informative_after_stages"), std::string::npos) << why;
 }
 
 TEST_F(CalibrateOnSimulation, ThinningKeepsFewerPointsOfLongSwathesAndTheSameMinimum) {

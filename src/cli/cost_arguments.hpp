@@ -26,6 +26,7 @@ struct CostArguments {
   std::string scenes = std::to_string(kCoreDefaults.scenes.scenes_per_camera);  // a count, or "auto"
   std::string scene_choice = SceneChoiceName(kCoreDefaults.scenes.choice);
   int scene_pool = kCoreDefaults.scenes.informative_pool_factor;
+  int scene_choice_after = kCoreDefaults.scenes.informative_after_stages;
   double swathe_length_m = kCoreDefaults.scenes.swathe_length_m;
   std::string direction = SwatheDirectionName(kCoreDefaults.scenes.direction);
   int bins = kCoreDefaults.cost.histogram.reflectance_bins;

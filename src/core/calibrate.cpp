@@ -74,6 +74,21 @@ Eigen::Isometry3d MeanTransform(const std::vector<Eigen::Isometry3d>& transforms
   return mean;
 }
 
+int InformativeChoiceStage(const CalibrationOptions& options) {
+  if (options.scenes.choice != SceneChoice::kInformative) return -1;
+  if (options.scheme == CalibrationScheme::kAlt) return 0;
+  const int stages = static_cast<int>(options.stages.size());
+  return std::clamp(options.scenes.informative_after_stages, 0, std::max(0, stages - 1));
+}
+
+namespace {
+std::string InformativeChoiceTiming(const CalibrationOptions& options) {
+  const int stage = InformativeChoiceStage(options);
+  return stage <= 0 ? std::string(", chosen at the initial guess")
+                    : ", chosen after the first " + std::to_string(stage) + " stage(s), which use the whole pool";
+}
+}  // namespace
+
 void RecordCommonSettings(const CalibrationOptions& options, CalibrationResult* result) {
   std::map<std::string, std::string>& settings = result->settings;
   settings["scheme"] = CalibrationSchemeName(options.scheme);
@@ -106,6 +121,7 @@ void RecordCommonSettings(const CalibrationOptions& options, CalibrationResult* 
   if (options.scenes.choice == SceneChoice::kInformative) {
     settings["scene_choice"] =
         std::string("informative of ") + std::to_string(options.scenes.CandidatesPerCamera()) + " per camera" +
+        InformativeChoiceTiming(options) +
         (options.scenes.auto_variance_ratio > 0.0
              ? ", as many as bring the predicted variance within " + NumberText(options.scenes.auto_variance_ratio) +
                    "x of the whole pool's (at least " + std::to_string(options.scenes.min_auto_scenes) + ")"

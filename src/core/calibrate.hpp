@@ -310,6 +310,11 @@ extern const double kGradientEvaluationCost;
 std::string DescribeEvaluations(LowerSolver solver, int evaluations, int gradient_evaluations);
 
 // The settings every scheme records in the result (scheme, metric, bins, scenes, ...).
+// The stage before which the informative scene choice is made: 0 at the
+// initial guess (alt, or informative_after_stages 0), k after the first k
+// stages of a once/joint schedule; -1 when the scenes are spread.
+int InformativeChoiceStage(const CalibrationOptions& options);
+
 void RecordCommonSettings(const CalibrationOptions& options, CalibrationResult* result);
 
 // Why no scene of a lidar's pairs carries information (for the status message).

@@ -157,7 +157,9 @@ void Calibrator::BuildPairs() {
              DescribeUnusable(lidar.name, built.pairs, options_.cost.min_points_per_scene));
       return;
     }
-    if (options_.scenes.choice == SceneChoice::kInformative) KeepInformativeScenes(built);
+    if (InformativeChoiceStage(options_) == 0) {
+      for (auto& pair : built.pairs) KeepInformativeFrames(*pair, pair->Camera().T_camera_base() * lidar.T_base_lidar);
+    }
     // Initial costs (visibility at the initial guess).
     for (const auto& pair : built.pairs) {
       built.initial_costs.push_back(pair->Evaluate(pair->Camera().T_camera_base() * lidar.T_base_lidar));
@@ -166,22 +168,26 @@ void Calibrator::BuildPairs() {
   }
 }
 
-void Calibrator::KeepInformativeScenes(LidarPairs& built) {
-  for (auto& pair : built.pairs) {
-    if (pair->SceneCount() == 0) continue;
-    const Eigen::Isometry3d T_camera_lidar = pair->Camera().T_camera_base() * built.lidar->T_base_lidar;
-    const int pool = pair->FrameCount();
-    InformativeChoiceOptions choice_options;
-    choice_options.max_variance_ratio = options_.scenes.auto_variance_ratio;
-    choice_options.min_count = static_cast<std::size_t>(options_.scenes.min_auto_scenes);
-    const InformativeChoice choice =
-        pair->KeepMostInformative(T_camera_lidar, options_.scenes.scenes_per_camera, choice_options);
-    pair->RefreshVisibility(T_camera_lidar);
-    Say("scenes " + pair->Camera().name + "/" + built.lidar->name + ": kept the " +
-        std::to_string(pair->FrameCount()) + " most informative of " + std::to_string(pool) +
-        " frames (predicted variance " + NumberText(choice.predicted_variance_chosen / choice.predicted_variance_pool) +
-        " times the whole pool's)");
-  }
+bool Calibrator::ChoosesInformativeBefore(int stage_index) const {
+  return stage_index != 0 && stage_index == InformativeChoiceStage(options_);  // 0: chosen at construction
+}
+
+void Calibrator::KeepInformativeFrames(PairCost& pair, const Eigen::Isometry3d& T_camera_lidar) {
+  if (pair.SceneCount() == 0) return;
+  const int pool = pair.FrameCount();
+  // Judged on the sharp images with the visibility at T_camera_lidar, as at the initial guess: a blurred
+  // stage's image has lost the edges that the information counts.
+  pair.SetImageBlur(0.0);
+  pair.RefreshVisibility(T_camera_lidar);
+  InformativeChoiceOptions choice_options;
+  choice_options.max_variance_ratio = options_.scenes.auto_variance_ratio;
+  choice_options.min_count = static_cast<std::size_t>(options_.scenes.min_auto_scenes);
+  const InformativeChoice choice =
+      pair.KeepMostInformative(T_camera_lidar, options_.scenes.scenes_per_camera, choice_options);
+  pair.RefreshVisibility(T_camera_lidar);
+  Say("scenes " + pair.Camera().name + "/" + pair.Lidar() + ": kept the " + std::to_string(pair.FrameCount()) +
+      " most informative of " + std::to_string(pool) + " frames (predicted variance " +
+      NumberText(choice.predicted_variance_chosen / choice.predicted_variance_pool) + " times the whole pool's)");
 }
 
 void Calibrator::BuildAlternatingSetup() {
@@ -316,7 +322,10 @@ void Calibrator::SolveJoint(LidarPairs& problem, std::vector<Eigen::Isometry3d>*
       [&](const Eigen::Isometry3d& T, Vector6d* gradient) {
         return EvaluateJointWithGradient(pairs, T, nelder_mead.transform_update, nelder_mead.pivot_source, gradient);
       },
-      [&](const OptimisationStage& stage, const Eigen::Isometry3d& T) {
+      [&, stage_index = 0](const OptimisationStage& stage, const Eigen::Isometry3d& T) mutable {
+        if (ChoosesInformativeBefore(stage_index++)) {
+          for (auto& pair : problem.pairs) KeepInformativeFrames(*pair, pair->Camera().T_camera_base() * T);
+        }
         std::vector<PairCost*> stage_pairs;
         std::vector<Eigen::Isometry3d> stage_T_camera_lidar;
         for (auto& pair : problem.pairs) {
@@ -355,7 +364,8 @@ void Calibrator::SolveEachPair(LidarPairs& problem, std::vector<Eigen::Isometry3
           if (gradient == nullptr) return pair.Evaluate(T);
           return pair.EvaluateWithGradient(T, nelder_mead.transform_update, nelder_mead.pivot_source, gradient);
         },
-        [&](const OptimisationStage& stage, const Eigen::Isometry3d& T) {
+        [&, stage_index = 0](const OptimisationStage& stage, const Eigen::Isometry3d& T) mutable {
+          if (ChoosesInformativeBefore(stage_index++)) KeepInformativeFrames(pair, T);
           PreparePairForStage(pair, stage, T);
           CorrectMotionBeforeStage({&pair}, stage, {T}, lidar.name);
         },

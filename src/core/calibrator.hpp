@@ -97,8 +97,11 @@ class Calibrator {
 
   CalibrationStatus Cannot(CalibrationStatus status, std::string why);
   void BuildPairs();
-  // SceneChoice::kInformative: each pair keeps its scenes_per_camera most informative frames of the pool.
-  void KeepInformativeScenes(LidarPairs& built);
+  // SceneChoice::kInformative: the pair keeps its scenes_per_camera most informative frames of the pool, judged at
+  // T_camera_lidar (Solve runs once, so each pair chooses once).
+  void KeepInformativeFrames(PairCost& pair, const Eigen::Isometry3d& T_camera_lidar);
+  // Whether a once/joint solve makes the informative choice before its stage stage_index (not 0: made at construction).
+  bool ChoosesInformativeBefore(int stage_index) const;
   void BuildAlternatingSetup();
   CalibrationOutcome SolveOnceOrJoint();
   // joint: one problem over the lidar's T_base_lidar; once: one per pair. Fill each pair's T_camera_lidar and

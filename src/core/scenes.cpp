@@ -30,6 +30,7 @@ bool SceneOptions::IsValid(std::string* why) const {
   if (!(auto_variance_ratio == 0.0 || (auto_variance_ratio > 1.0 && std::isfinite(auto_variance_ratio))))
     return Invalid(why, "auto_variance_ratio must be 0 (a fixed count) or a factor above 1");
   if (min_auto_scenes < 1) return Invalid(why, "min_auto_scenes must be at least 1");
+  if (informative_after_stages < 0) return Invalid(why, "informative_after_stages must be 0 or more");
   if (!(swathe_length_m > 0.0) || !std::isfinite(swathe_length_m))
     return Invalid(why, "swathe_length_m must be a positive number of metres");
   if (!(min_speed_mps >= 0.0) || !std::isfinite(min_speed_mps)) return Invalid(why, "min_speed_mps must be >= 0 (m/s)");

@@ -57,6 +57,14 @@ struct SceneOptions {
   // factor of the whole pool's; 0 keeps S.
   double auto_variance_ratio = 0.0;
   int min_auto_scenes = 8;
+  // informative, once and joint schemes: the first this many stages of the
+  // schedule run on the whole pool and the choice is made at their answer
+  // (at most all stages but the last). The wide blurred first stage needs
+  // every frame to keep the basin (from the initial guess, 12-15 chosen
+  // frames lost it on a trinocular world), and the choice is sharper from a
+  // guess that is already near. alt chooses at the initial guess (its lower
+  // levels may run on other ranks).
+  int informative_after_stages = 1;
   double swathe_length_m = 10.0;     // L, distance travelled while the swathe is gathered (the paper: 10 m)
   SwatheDirection direction = SwatheDirection::kForward;
   // Frames taken while the base moves slower than this (m/s, averaged over
