@@ -876,6 +876,49 @@ TEST_F(CalibrateOnSimulation, InformativeChoiceKeepsWholeFramesAfterTheFirstStag
   EXPECT_NE(why.find("informative_after_stages"), std::string::npos) << why;
 }
 
+// The choice after a blurred stage judges the frames on the sharp images, as the choice at the initial guess
+// does: from the same pose both keep the same frames.
+TEST_F(CalibrateOnSimulation, InformativeChoiceAfterABlurredStageJudgesTheSharpImages) {
+  const io::Dataset dataset = io::OpenDataset(DatasetPath());
+  CalibrationOptions options;
+  options.scheme = CalibrationScheme::kJoint;
+  options.scenes.scenes_per_camera = 3;
+  options.scenes.choice = SceneChoice::kInformative;
+  options.scenes.informative_pool_factor = 2;
+  // Steps a millionth of the usual: the stages leave the pose where it started (the truth), and the first
+  // stage's blur (64 px at 1280) would hide the edges that the information counts.
+  options.stages = {{1e-6, 0.05, 0}, {1e-6, 0.0, 0}};
+  CalibrationInput input = Load(dataset, options.scenes);
+  for (LidarInfo& lidar : input.rig.lidars) lidar.T_base_lidar = dataset.ground_truth->T_base_lidar.at(lidar.name);
+  const Eigen::Isometry3d T_base_lidar = dataset.ground_truth->T_base_lidar.at("lms_rear");
+  const auto kept_frames = [&](Calibrator& calibrator) {
+    std::set<TimeUs> times;
+    const PairCost* left = calibrator.PairAt("left", "lms_rear", T_base_lidar);
+    if (left != nullptr) {
+      for (const SceneSwathe& scene : left->Scenes()) times.insert(scene.ImageTime());
+    }
+    return times;
+  };
+  // The choice's message names the frames kept and their predicted variance, which the blur would change.
+  const auto choice_said = [](std::string* said) {
+    return [said](const std::string& message) {
+      if (message.rfind("scenes left/lms_rear: kept", 0) == 0) *said = message;
+    };
+  };
+  std::string said_after_stage, said_at_guess;
+  Calibrator after_stage(input, options, choice_said(&said_after_stage));
+  ASSERT_EQ(after_stage.Status(), CalibrationStatus::kSuccess) << after_stage.Why();
+  ASSERT_EQ(after_stage.Solve().status, CalibrationStatus::kSuccess);
+  options.scenes.informative_after_stages = 0;
+  Calibrator at_guess(input, options, choice_said(&said_at_guess));
+  ASSERT_EQ(at_guess.Status(), CalibrationStatus::kSuccess) << at_guess.Why();
+  const std::set<TimeUs> chosen_at_guess = kept_frames(at_guess);
+  EXPECT_EQ(chosen_at_guess.size(), 3u);
+  EXPECT_EQ(kept_frames(after_stage), chosen_at_guess);
+  ASSERT_FALSE(said_at_guess.empty());
+  EXPECT_EQ(said_after_stage, said_at_guess);
+}
+
 TEST_F(CalibrateOnSimulation, ThinningKeepsFewerPointsOfLongSwathesAndTheSameMinimum) {
   const io::Dataset dataset = io::OpenDataset(DatasetPath());
   CalibrationOptions options;
