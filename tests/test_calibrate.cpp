@@ -1422,6 +1422,81 @@ TEST_F(CalibrateOnSimulation, BasinCheckRestartsAboutEachAxisAndComparesTheEnds)
   EXPECT_NE(why.find("offset"), std::string::npos);
 }
 
+// An answer 4 cm off the truth across the travel: restarts from it end near
+// the cost's minimum at a lower cost, and the lowest end becomes the answer,
+// with the pairs' transforms and costs there. Not under alt with uncertain
+// camera transforms.
+TEST_F(CalibrateOnSimulation, BasinCheckAdoptsALowerCostEndFromAnAnswerOffTheMinimum) {
+  const io::Dataset dataset = io::OpenDataset(DatasetPath());
+  CalibrationOptions options;
+  options.scheme = CalibrationScheme::kJoint;
+  options.scenes.scenes_per_camera = 8;
+  const CalibrationInput input = Load(dataset, options.scenes);
+  const Eigen::Isometry3d truth = dataset.ground_truth->T_base_lidar.at("lms_rear");
+  const Eigen::Isometry3d off = ApplyTransformUpdate(truth, (Vector6d() << 0, 0.04, 0, 0, 0, 0).finished(),
+                                                     TransformUpdate::kAboutSourcePoint);
+  const auto result_at = [&](const Eigen::Isometry3d& T_base_lidar) {
+    CalibrationResult result;
+    result.lidars.push_back({"lms_rear", T_base_lidar, std::nullopt, std::nullopt});
+    for (const CameraInfo& camera : input.rig.cameras) {
+      result.pairs.push_back({camera.name, "lms_rear", camera.T_camera_base() * T_base_lidar, 0.0});
+    }
+    return result;
+  };
+  BasinCheckOptions check_options;
+  check_options.last_stages = static_cast<int>(options.stages.size());  // steps wide enough to come back 4 cm
+  Calibrator calibrator(input, options);
+  ASSERT_EQ(calibrator.Status(), CalibrationStatus::kSuccess) << calibrator.Why();
+  CalibrationResult result = result_at(off);
+  std::vector<LidarBasinCheck> checks = calibrator.CheckBasins(result, check_options);
+  ASSERT_EQ(checks.size(), 1u);
+  ASSERT_FALSE(checks[0].agree);
+  const int better = BetterRestart(checks[0], check_options);
+  ASSERT_GE(better, 0);
+  const Eigen::Isometry3d lowest_end = checks[0].restarts[static_cast<std::size_t>(better)].T_base_lidar_end;
+  const double cost_off = checks[0].cost_answer;
+
+  EXPECT_EQ(calibrator.AdoptBetterRestarts(check_options, &result, &checks), std::vector<std::string>{"lms_rear"});
+  const LidarBasinCheck& check = checks[0];
+  EXPECT_EQ(check.adopted_restart, better);
+  EXPECT_TRUE(result.lidars[0].T_base_lidar.isApprox(lowest_end));
+  EXPECT_TRUE(check.T_base_lidar_calibrated.isApprox(off));
+  EXPECT_EQ(check.cost_calibrated, cost_off);
+  EXPECT_LT(check.cost_answer, cost_off);
+  const double t_off = TranslationError(off, truth), t_new = TranslationError(result.lidars[0].T_base_lidar, truth);
+  std::cout << "[ measured ] adopted the restart end " << 100.0 * t_new << " cm from the truth; the answer was "
+            << 100.0 * t_off << " cm\n";
+  EXPECT_LT(t_new, 0.5 * t_off);
+  for (const PairCalibration& pair : result.pairs) {
+    SCOPED_TRACE(pair.camera);
+    const CameraInfo* camera = input.rig.FindCamera(pair.camera);
+    ASSERT_NE(camera, nullptr);
+    EXPECT_TRUE(pair.T_camera_lidar.isApprox(camera->T_camera_base() * result.lidars[0].T_base_lidar));
+    PairCost* cost = calibrator.PairAt(pair.camera, "lms_rear", result.lidars[0].T_base_lidar);
+    ASSERT_NE(cost, nullptr);
+    EXPECT_DOUBLE_EQ(pair.cost, cost->Evaluate(pair.T_camera_lidar));
+  }
+
+  // alt with a sigma on a camera's known transform keeps its answer.
+  CalibrationOptions alt = options;
+  alt.scheme = CalibrationScheme::kAlt;
+  CalibrationInput uncertain = input;
+  uncertain.rig.cameras[0].T_base_camera_sigma = Vector6d::Constant(1e-3);
+  Calibrator alt_calibrator(uncertain, alt);
+  ASSERT_EQ(alt_calibrator.Status(), CalibrationStatus::kSuccess) << alt_calibrator.Why();
+  CalibrationResult alt_result = result_at(off);
+  std::vector<LidarBasinCheck> alt_checks = checks;
+  alt_checks[0] = LidarBasinCheck{};
+  alt_checks[0].lidar = "lms_rear";
+  alt_checks[0].checked = true;
+  alt_checks[0].cost_answer = cost_off;
+  alt_checks[0].restarts = {checks[0].restarts[static_cast<std::size_t>(better)]};
+  alt_checks[0].restarts[0].cost_end = check.cost_answer;
+  EXPECT_TRUE(alt_calibrator.AdoptBetterRestarts(check_options, &alt_result, &alt_checks).empty());
+  EXPECT_TRUE(alt_result.lidars[0].T_base_lidar.isApprox(off));
+  EXPECT_EQ(alt_checks[0].adopted_restart, -1);
+}
+
 TEST_F(CalibrateOnSimulation, AlternatingNidRecoversTheTruthAndItsLevelsAgree) {
   const io::Dataset dataset = io::OpenDataset(DatasetPath());
   CalibrationOptions options;

@@ -14,6 +14,7 @@
 #include <unistd.h>
 #include <yaml-cpp/yaml.h>
 
+#include "core/basin_check.hpp"
 #include "core/calibrate.hpp"
 #include "core/nelder_mead.hpp"
 #include "core/uncertainty.hpp"
@@ -250,6 +251,95 @@ TEST(ErrorEstimate, SumsItsPartsAndJudges) {
   EXPECT_NEAR(estimate.sigma_tuple[2], 0.08, 1e-9);
   LidarUncertainty none;
   EXPECT_FALSE(EstimateLidarError(answer, none, nullptr, {}, false, units).estimated);
+}
+
+// A lower-cost restart end apart from the answer becomes the answer; the
+// distances and the agreement are then measured from it, the calibration's
+// own answer counting as one more end, and the basin part of the error
+// estimate moves with it.
+TEST(BasinAdoption, TakesTheLowestEndApartAndReMeasuresFromIt) {
+  const Eigen::Isometry3d calibrated = TransformFromTuple((Vector6d() << 1.0, 0.2, 0.5, 0.0, 0.1, 0.3).finished());
+  const auto moved = [&](double forward_m) {
+    return ApplyTransformUpdate(calibrated, Vector6d::Unit(0) * forward_m, TransformUpdate::kAboutSourcePoint);
+  };
+  BasinCheckOptions options;  // agree within 1 cm / 0.1 deg
+  LidarBasinCheck check;
+  check.checked = true;
+  check.cost_answer = 0.95;
+  const std::vector<std::pair<double, double>> ends = {{0.002, 0.9501}, {0.040, 0.9492}, {0.045, 0.9490},
+                                                       {0.050, 0.9493}, {0.003, 0.9500}, {0.001, 0.9502}};
+  for (const auto& [forward_m, cost] : ends) {
+    BasinRestart restart;
+    restart.T_base_lidar_end = moved(forward_m);
+    restart.translation_apart_m = forward_m;
+    restart.cost_end = cost;
+    check.restarts.push_back(restart);
+  }
+  // Agreeing restarts are never taken, nor ends that are not lower by the margin, nor an end within the
+  // agreement bounds (the same minimum), however low.
+  check.agree = true;
+  EXPECT_EQ(BetterRestart(check, options), -1);
+  check.agree = false;
+  EXPECT_EQ(BetterRestart(check, options), 2);
+  EXPECT_EQ(BetterRestart(check, options, 0.0011), -1);
+  check.restarts[0].cost_end = 0.9480;  // 0.2 cm from the answer
+  EXPECT_EQ(BetterRestart(check, options), 2);
+  check.restarts[0].rotation_apart_rad = RadiansFromDegrees(0.2);  // now apart by its rotation
+  EXPECT_EQ(BetterRestart(check, options), 0);
+  check.restarts[0].rotation_apart_rad = 0.0;
+  check.restarts[0].cost_end = 0.9501;
+  check.checked = false;
+  EXPECT_EQ(BetterRestart(check, options), -1);
+  check.checked = true;
+
+  Eigen::Isometry3d answer = calibrated;
+  AdoptRestart(2, options, &check, &answer);
+  EXPECT_TRUE(answer.isApprox(moved(0.045)));
+  EXPECT_EQ(check.adopted_restart, 2);
+  EXPECT_TRUE(check.T_base_lidar_calibrated.isApprox(calibrated));
+  EXPECT_DOUBLE_EQ(check.cost_calibrated, 0.95);
+  EXPECT_DOUBLE_EQ(check.cost_answer, 0.9490);
+  EXPECT_NEAR(check.restarts[2].translation_apart_m, 0.0, 1e-12);
+  EXPECT_NEAR(check.restarts[1].translation_apart_m, 0.005, 1e-9);
+  EXPECT_NEAR(check.restarts[0].translation_apart_m, 0.043, 1e-9);
+  EXPECT_NEAR(check.max_translation_apart_m, 0.045, 1e-9);  // the calibration's own answer
+  EXPECT_FALSE(check.agree);
+
+  // The ends beside the new answer: the other restarts' and the calibration's own answer.
+  const std::vector<Eigen::Isometry3d> beside = EndsBesideAnswer(check);
+  ASSERT_EQ(beside.size(), 6u);
+  EXPECT_TRUE(beside[2].isApprox(calibrated));
+  EXPECT_TRUE(beside[3].isApprox(moved(0.050)));
+
+  // The basin part of the error estimate is the ends' second moment about the new answer.
+  const UncertaintyOptions units;
+  LidarUncertainty local;
+  local.estimated = local.determined = true;
+  for (int k = 0; k < 6; ++k) {
+    UncertainDirection direction;
+    direction.direction = Vector6d::Unit(k) * (k < 3 ? units.unit_translation_m : units.unit_rotation_rad);
+    direction.determined = true;
+    direction.sigma_units = 0.1;
+    local.directions.push_back(direction);
+  }
+  const LidarErrorEstimate estimate = EstimateLidarError(answer, local, &check, {}, false, units);
+  ASSERT_TRUE(estimate.estimated);
+  double second_moment = 0.0;
+  for (const double forward_m : {0.002, 0.040, 0.0, 0.050, 0.003, 0.001}) {
+    second_moment += std::pow(forward_m - 0.045, 2) / 6.0;
+  }
+  EXPECT_NEAR(estimate.covariance_d(0, 0), 1e-6 + second_moment, 1e-9);  // translation along base x
+
+  // Within the bounds of the new answer the ends agree again.
+  LidarBasinCheck near = check;
+  near.adopted_restart = -1;
+  near.cost_answer = 0.95;
+  for (BasinRestart& restart : near.restarts) restart.T_base_lidar_end = moved(0.040 + 0.001 * restart.cost_end);
+  Eigen::Isometry3d near_answer = moved(0.035);
+  near.agree = false;
+  AdoptRestart(1, options, &near, &near_answer);
+  EXPECT_TRUE(near.agree);  // ends within 0.1 mm of each other, the calibration's answer 0.5 cm away
+  EXPECT_LT(near.max_translation_apart_m, 0.01);
 }
 
 }  // namespace

@@ -95,6 +95,7 @@ struct CalibrateArguments {
   std::string report_dir;  // --report: HTML report directory; empty = none
   bool no_uncertainty = false;  // --no-uncertainty: skip the uncertainty estimate
   bool no_basin_check = false;  // --no-basin-check: skip the restarts from further away
+  bool keep_calibration_answer = false;  // --keep-calibration-answer: a lower-cost restart end does not replace it
   double basin_offset_deg = 1.0;
   AlternatingArguments alternating;  // --scheme alt
   ConfigArguments config;            // --config, --setting
@@ -345,6 +346,18 @@ void CheckAnswer(const CalibrateArguments& args, const CalibrationOptions& optio
   };
   std::vector<LidarUncertainty> local_estimates;
   std::vector<LidarBasinCheck> basin_checks;
+  // The basin check first: a restart that ends at a lower cost may become the
+  // answer, and the uncertainty is then estimated there.
+  if (!args.no_basin_check) {
+    if (budget_spent()) {
+      // The check runs the final stage six times per lidar: not within a spent budget.
+      spdlog::warn("no basin check: the time budget ({} s) is spent", args.time_budget_s);
+      result->settings["basin_check"] = "skipped: time budget spent";
+    } else {
+      (*extra)["basin_check"] =
+          ReportBasinCheck(calibrator, args.basin_offset_deg, !args.keep_calibration_answer, result, &basin_checks);
+    }
+  }
   if (!args.no_uncertainty && budget_spent()) {
     spdlog::warn("no uncertainty estimate: the time budget ({} s) is spent", args.time_budget_s);
     result->settings["uncertainty"] = "skipped: time budget spent";
@@ -354,15 +367,6 @@ void CheckAnswer(const CalibrateArguments& args, const CalibrationOptions& optio
                    "freedom is not in it (with --motion-correction the error can be several times larger)");
     }
     (*extra)["uncertainty"] = ReportUncertainty(calibrator, result, &local_estimates);
-  }
-  if (!args.no_basin_check) {
-    if (budget_spent()) {
-      // The check runs the final stage six times per lidar: not within a spent budget.
-      spdlog::warn("no basin check: the time budget ({} s) is spent", args.time_budget_s);
-      result->settings["basin_check"] = "skipped: time budget spent";
-    } else {
-      (*extra)["basin_check"] = ReportBasinCheck(calibrator, args.basin_offset_deg, result, &basin_checks);
-    }
   }
   if (!local_estimates.empty()) {
     YAML::Node uncertainty = (*extra)["uncertainty"];
@@ -689,8 +693,14 @@ void AddAfterCalibrationOptions(CLI::App* command, CalibrateArguments* args) {
   command->add_flag("--no-basin-check", args->no_basin_check,
                     "Skip the basin check after the calibration (by default the joint cost is minimised again from "
                     "the answer turned +-1 deg about each base axis, and a warning says when those runs end apart: "
-                    "the data then do not pin the extrinsic down, however small the local sigma; ~6 x the final "
-                    "stages' evaluations; skipped when --time-budget is spent by then)");
+                    "the data then do not pin the extrinsic down, however small the local sigma; a run that ends "
+                    "apart at a lower cost becomes the answer; ~6 x the final stages' evaluations; skipped when "
+                    "--time-budget is spent by then)");
+  command->add_flag("--keep-calibration-answer", args->keep_calibration_answer,
+                    "Basin check: keep the calibration's own answer even where a restart ended apart from it at a "
+                    "lower cost (by default that end becomes the answer, as the solver had stopped short of the "
+                    "cost's minimum, and the calibration's answer is kept as basin_check.LIDAR.calibration_answer; "
+                    "not under --scheme alt when a camera's T_base_camera has a sigma in rig.yaml)");
   command->add_option("--basin-offset", args->basin_offset_deg,
                       "Basin check: turn the restarts' starts this many degrees away from the answer")
       ->check(CLI::Range(0.01, 44.9))

@@ -30,11 +30,13 @@ YAML::Node ReportUncertainty(Calibrator& calibrator, CalibrationResult* result,
                              std::vector<LidarUncertainty>* estimates);
 
 // The global check (core/basin_check.hpp): restarts from the answer turned
-// +-offset_deg about each base axis; logs each, adds a warning per lidar whose
-// restarts do not come back, and returns the `basin_check` mapping (by lidar
-// name) for the result file.
+// +-offset_deg about each base axis; with `adopt`, a restart that ends apart at
+// a lower cost becomes the answer in *result (Calibrator::AdoptBetterRestarts);
+// logs each, adds a warning per lidar whose answer changed or whose restarts
+// do not come back, and returns the `basin_check` mapping (by lidar name) for
+// the result file. Run it before the uncertainty, which is then at the answer.
 // *checks: the checks themselves, per lidar of the result.
-YAML::Node ReportBasinCheck(Calibrator& calibrator, double offset_deg, CalibrationResult* result,
+YAML::Node ReportBasinCheck(Calibrator& calibrator, double offset_deg, bool adopt, CalibrationResult* result,
                             std::vector<LidarBasinCheck>* checks);
 
 // The error estimate per lidar (core EstimateLidarError) from the local

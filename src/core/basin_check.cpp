@@ -98,4 +98,56 @@ LidarBasinCheck CheckLidarBasin(const std::vector<PairCost*>& owned, const Lidar
   return check;
 }
 
+int BetterRestart(const LidarBasinCheck& check, const BasinCheckOptions& check_options, double min_cost_drop) {
+  if (!check.checked || check.agree) return -1;
+  int best = -1;
+  double best_cost = check.cost_answer - min_cost_drop;
+  for (std::size_t i = 0; i < check.restarts.size(); ++i) {
+    const BasinRestart& restart = check.restarts[i];
+    const bool apart = restart.translation_apart_m > check_options.agree_translation_m ||
+                       restart.rotation_apart_rad > check_options.agree_rotation_rad;
+    const double cost = restart.cost_end;
+    if (apart && std::isfinite(cost) && cost < best_cost) {
+      best_cost = cost;
+      best = static_cast<int>(i);
+    }
+  }
+  return best;
+}
+
+void AdoptRestart(int index, const BasinCheckOptions& check_options, LidarBasinCheck* check,
+                  Eigen::Isometry3d* T_base_lidar) {
+  BasinRestart& adopted = check->restarts.at(static_cast<std::size_t>(index));
+  check->adopted_restart = index;
+  check->T_base_lidar_calibrated = *T_base_lidar;
+  check->cost_calibrated = check->cost_answer;
+  *T_base_lidar = adopted.T_base_lidar_end;
+  check->cost_answer = adopted.cost_end;
+  const auto within = [&](double translation_m, double rotation_rad) {
+    return translation_m <= check_options.agree_translation_m && rotation_rad <= check_options.agree_rotation_rad;
+  };
+  const double calibrated_translation_m = TranslationError(check->T_base_lidar_calibrated, *T_base_lidar);
+  const double calibrated_rotation_rad =
+      RadiansFromDegrees(RotationErrorDegrees(check->T_base_lidar_calibrated, *T_base_lidar));
+  check->max_translation_apart_m = calibrated_translation_m;
+  check->max_rotation_apart_rad = calibrated_rotation_rad;
+  check->agree = within(calibrated_translation_m, calibrated_rotation_rad);
+  for (BasinRestart& restart : check->restarts) {
+    restart.translation_apart_m = TranslationError(restart.T_base_lidar_end, *T_base_lidar);
+    restart.rotation_apart_rad = RadiansFromDegrees(RotationErrorDegrees(restart.T_base_lidar_end, *T_base_lidar));
+    check->max_translation_apart_m = std::max(check->max_translation_apart_m, restart.translation_apart_m);
+    check->max_rotation_apart_rad = std::max(check->max_rotation_apart_rad, restart.rotation_apart_rad);
+    check->agree = check->agree && within(restart.translation_apart_m, restart.rotation_apart_rad);
+  }
+}
+
+std::vector<Eigen::Isometry3d> EndsBesideAnswer(const LidarBasinCheck& check) {
+  std::vector<Eigen::Isometry3d> ends;
+  for (std::size_t i = 0; i < check.restarts.size(); ++i) {
+    ends.push_back(static_cast<int>(i) == check.adopted_restart ? check.T_base_lidar_calibrated
+                                                                : check.restarts[i].T_base_lidar_end);
+  }
+  return ends;
+}
+
 }  // namespace scenecal

@@ -64,6 +64,13 @@ struct LidarBasinCheck {
   std::vector<BasinRestart> restarts;  // x-, x+, y-, y+, z-, z+
   int evaluations = 0;
   double seconds = 0.0;
+  // Set when a restart's end replaced the answer (AdoptRestart): its index in
+  // `restarts`, and the calibration's own answer with its cost. cost_answer,
+  // the distances and `agree` are then those of the new answer; the costs
+  // were all taken with the visibility at the calibration's own answer.
+  int adopted_restart = -1;
+  Eigen::Isometry3d T_base_lidar_calibrated = Eigen::Isometry3d::Identity();
+  double cost_calibrated = 0.0;
 };
 
 // The restarts above for one lidar's answer, on its pair costs (those with
@@ -73,5 +80,24 @@ struct LidarBasinCheck {
 LidarBasinCheck CheckLidarBasin(const std::vector<PairCost*>& pairs, const LidarCalibration& answer,
                                 const CalibrationOptions& options, const BasinCheckOptions& check_options,
                                 const ProgressCallback& progress = {});
+
+// The restart whose end is a better answer than the calibration's, or -1: of
+// the restarts that ended apart from the answer (outside the agreement
+// bounds), the one that ended lowest, if that is more than min_cost_drop
+// below the answer's cost. The answer then is not the cost's minimum but a
+// point where the solver stopped short, as on flat valleys (docs/findings.md,
+// "A spinning lidar's forward translation bias"). An end within the bounds is
+// the same minimum, whatever its cost.
+int BetterRestart(const LidarBasinCheck& check, const BasinCheckOptions& check_options, double min_cost_drop = 0.0);
+
+// Makes restart `index`'s end the answer (*T_base_lidar, in: the
+// calibration's answer, out: that end) and re-measures every distance and the
+// agreement from it, the calibration's own answer counting as one more end.
+void AdoptRestart(int index, const BasinCheckOptions& check_options, LidarBasinCheck* check,
+                  Eigen::Isometry3d* T_base_lidar);
+
+// The ends the check found beside the answer: every restart's, with the
+// calibration's own answer in place of an adopted restart's.
+std::vector<Eigen::Isometry3d> EndsBesideAnswer(const LidarBasinCheck& check);
 
 }  // namespace scenecal

@@ -6,6 +6,8 @@
 #include <limits>
 #include <sstream>
 
+#include <fmt/format.h>
+
 #include "core/interrupt.hpp"
 #include "core/number_text.hpp"
 
@@ -506,6 +508,38 @@ std::vector<LidarBasinCheck> Calibrator::CheckBasins(const CalibrationResult& re
     checks.push_back(CheckLidarBasin(pairs, answer, options_, check_options, progress_));
   }
   return checks;
+}
+
+std::vector<std::string> Calibrator::AdoptBetterRestarts(const BasinCheckOptions& check_options,
+                                                         CalibrationResult* result,
+                                                         std::vector<LidarBasinCheck>* checks) {
+  std::vector<std::string> adopted;
+  const bool cameras_uncertain = std::any_of(input_.rig.cameras.begin(), input_.rig.cameras.end(),
+                                             [](const CameraInfo& camera) { return camera.T_base_camera_sigma; });
+  if (options_.scheme == CalibrationScheme::kAlt && cameras_uncertain) return adopted;
+  for (LidarBasinCheck& check : *checks) {
+    const int better = BetterRestart(check, check_options);
+    if (better < 0) continue;
+    const auto answer = std::find_if(result->lidars.begin(), result->lidars.end(),
+                                     [&](const LidarCalibration& lidar) { return lidar.lidar == check.lidar; });
+    if (answer == result->lidars.end()) continue;
+    AdoptRestart(better, check_options, &check, &answer->T_base_lidar);
+    for (PairCost* pair : PairsAt(check.lidar, answer->T_base_lidar, options_.cost.histogram.binning)) {
+      for (PairCalibration& pair_result : result->pairs) {
+        if (pair_result.lidar != check.lidar || pair_result.camera != pair->Camera().name) continue;
+        pair_result.T_camera_lidar = pair->Camera().T_camera_base() * answer->T_base_lidar;
+        pair_result.cost = pair->Evaluate(pair_result.T_camera_lidar);
+      }
+    }
+    Say(fmt::format("basin check {}: the restart from {:+.2f} deg about base {} ended at a lower cost ({:.6f} against "
+                    "{:.6f}), {:.2f} cm and {:.3f} deg from the calibration's answer: it is the answer now",
+                    check.lidar, check.restarts[better].sign * DegreesFromRadians(check_options.offset_rad),
+                    "xyz"[check.restarts[better].axis], check.cost_answer, check.cost_calibrated,
+                    100.0 * TranslationError(check.T_base_lidar_calibrated, answer->T_base_lidar),
+                    RotationErrorDegrees(check.T_base_lidar_calibrated, answer->T_base_lidar)));
+    adopted.push_back(check.lidar);
+  }
+  return adopted;
 }
 
 CalibrationOutcome Calibrate(const CalibrationInput& input, const CalibrationOptions& options,

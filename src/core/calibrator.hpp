@@ -79,6 +79,16 @@ class Calibrator {
   DriftTestResult TestDriftAt(const CalibrationResult& result, const DriftTestOptions& test_options);
   // The basin check at the result (core/basin_check.hpp).
   std::vector<LidarBasinCheck> CheckBasins(const CalibrationResult& result, const BasinCheckOptions& check_options);
+  // After CheckBasins: each lidar whose restarts ended outside the agreement
+  // bounds at a lower cost than its answer (BetterRestart) gets the lowest end
+  // as its answer in *result: T_base_lidar, and its pairs' T_camera_lidar
+  // through the known T_base_camera with their costs there (sharp images,
+  // visibility refreshed). Its check records it (AdoptRestart). Not under alt
+  // when a camera's T_base_camera has a sigma: alt's answer then need not keep
+  // the known transforms that the check's joint cost holds. Returns the lidars
+  // whose answer changed.
+  std::vector<std::string> AdoptBetterRestarts(const BasinCheckOptions& check_options, CalibrationResult* result,
+                                               std::vector<LidarBasinCheck>* checks);
 
  private:
   struct LidarPairs {

@@ -329,11 +329,12 @@ LidarErrorEstimate EstimateLidarError(const Eigen::Isometry3d& T_base_lidar, con
   }
   Matrix6d basin_d = Matrix6d::Zero();
   if (basin != nullptr && basin->checked && !basin->restarts.empty()) {
-    for (const BasinRestart& restart : basin->restarts) {
-      const Vector6d e = offset_d(restart.T_base_lidar_end);
+    const std::vector<Eigen::Isometry3d> ends = EndsBesideAnswer(*basin);
+    for (const Eigen::Isometry3d& end : ends) {
+      const Vector6d e = offset_d(end);
       basin_d += e * e.transpose();
     }
-    basin_d /= static_cast<double>(basin->restarts.size());
+    basin_d /= static_cast<double>(ends.size());
   }
   // Each other answer: its offset's direction, plus the same magnitude spread
   // over every direction (in units): the remaining drift's effect is taken to
