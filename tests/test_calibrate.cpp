@@ -1454,6 +1454,13 @@ TEST_F(CalibrateOnSimulation, BasinCheckAdoptsALowerCostEndFromAnAnswerOffTheMin
   const int better = BetterRestart(checks[0], check_options);
   ASSERT_GE(better, 0);
   const Eigen::Isometry3d lowest_end = checks[0].restarts[static_cast<std::size_t>(better)].T_base_lidar_end;
+  // The drop is judged by its spread over the scenes: finite, and cleared by more than 2 standard errors.
+  const BasinRestart& taken = checks[0].restarts[static_cast<std::size_t>(better)];
+  EXPECT_GT(taken.cost_drop_standard_error, 0.0);
+  EXPECT_GT(checks[0].cost_answer - taken.cost_end, 2.0 * taken.cost_drop_standard_error);
+  std::cout << "[ measured ] the adopted end's cost drop: " << (checks[0].cost_answer - taken.cost_end) /
+                                                                   taken.cost_drop_standard_error
+            << " standard errors\n";
   const double cost_off = checks[0].cost_answer;
 
   EXPECT_EQ(calibrator.AdoptBetterRestarts(check_options, &result, &checks), std::vector<std::string>{"lms_rear"});

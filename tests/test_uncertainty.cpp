@@ -273,6 +273,7 @@ TEST(BasinAdoption, TakesTheLowestEndApartAndReMeasuresFromIt) {
     restart.T_base_lidar_end = moved(forward_m);
     restart.translation_apart_m = forward_m;
     restart.cost_end = cost;
+    restart.cost_drop_standard_error = 1e-4;
     check.restarts.push_back(restart);
   }
   // Agreeing restarts are never taken, nor ends that are not lower by the margin, nor an end within the
@@ -288,6 +289,13 @@ TEST(BasinAdoption, TakesTheLowestEndApartAndReMeasuresFromIt) {
   EXPECT_EQ(BetterRestart(check, options), 0);
   check.restarts[0].rotation_apart_rad = 0.0;
   check.restarts[0].cost_end = 0.9501;
+  // A drop that the scenes do not agree on (within 2 standard errors) is no better minimum: the next lowest is.
+  check.restarts[2].cost_drop_standard_error = 6e-4;  // drop 1e-3
+  EXPECT_EQ(BetterRestart(check, options), 1);        // drop 8e-4, 8 standard errors
+  BasinCheckOptions strict = options;
+  strict.adopt_min_standard_errors = 10.0;
+  EXPECT_EQ(BetterRestart(check, strict), -1);
+  check.restarts[2].cost_drop_standard_error = 1e-4;
   check.checked = false;
   EXPECT_EQ(BetterRestart(check, options), -1);
   check.checked = true;

@@ -114,9 +114,10 @@ YAML::Node ReportBasinCheck(Calibrator& calibrator, double offset_deg, bool adop
         "joint cost minimised again (the last {} stage(s) of the schedule) from the calibration's answer turned "
         "+-{} deg about each base axis through the lidar origin; agree = every end within {} cm and {} deg of the "
         "answer; costs with sharp images and visibility at the calibration's answer; a restart that ends apart at a "
-        "lower cost becomes the answer{}",
+        "lower cost (by more than {} standard errors of the drop over the scenes) becomes the answer{}",
         check_options.last_stages, offset_deg, 100.0 * check_options.agree_translation_m,
-        check_options.agree_rotation_rad * deg, adopt ? "" : " (not in this run: --keep-calibration-answer)");
+        check_options.agree_rotation_rad * deg, check_options.adopt_min_standard_errors,
+        adopt ? "" : " (not in this run: --keep-calibration-answer)");
     entry["checked"] = check.checked;
     if (!check.checked) {
       entry["why"] = check.why;
@@ -143,21 +144,16 @@ YAML::Node ReportBasinCheck(Calibrator& calibrator, double offset_deg, bool adop
       entry["calibration_answer"] = calibrated;
     }
     YAML::Node restarts(YAML::NodeType::Sequence);
-    double lowest_cost = check.cost_answer;
-    const BasinRestart* lowest = nullptr;
     for (const BasinRestart& restart : check.restarts) {
       YAML::Node item(YAML::NodeType::Map);
       item["start"] = start_text(restart);
       item["translation_apart_m"] = restart.translation_apart_m;
       item["rotation_apart_deg"] = restart.rotation_apart_rad * deg;
       item["cost"] = restart.cost_end;
+      item["cost_drop_standard_error"] = restart.cost_drop_standard_error;
       const Vector6d end = TupleFromTransform(restart.T_base_lidar_end);
       item["T_base_lidar"] = Numbers(end.data(), 6);
       restarts.push_back(item);
-      if (restart.cost_end < lowest_cost) {
-        lowest_cost = restart.cost_end;
-        lowest = &restart;
-      }
     }
     entry["restarts"] = restarts;
     entry["evaluations"] = check.evaluations;
@@ -167,14 +163,16 @@ YAML::Node ReportBasinCheck(Calibrator& calibrator, double offset_deg, bool adop
       const BasinRestart& adopted = check.restarts[static_cast<std::size_t>(check.adopted_restart)];
       result->warnings.push_back(fmt::format(
           "lidar {}: basin check: the restart from the answer turned {} ended {:.2f} cm and {:.3f} deg from where the "
-          "calibration stopped, at a lower cost ({:.6f} against {:.6f}): the solver had stopped short of the cost's "
+          "calibration stopped, at a lower cost ({:.6f} against {:.6f}, {:.1f} standard errors of the drop over the "
+          "scenes): the solver had stopped short of the cost's "
           "minimum, so that end is the result (on two simulated spin3d drives such ends were 1.5-2.0 cm from the "
           "truth, the calibration's answers 6.1-8.0 cm; docs/findings.md, \"A spinning lidar's forward translation "
           "bias\"). The calibration's own answer is basin_check.{}.calibration_answer; --keep-calibration-answer "
           "keeps it",
           check.lidar, start_text(adopted), 100.0 * TranslationError(check.T_base_lidar_calibrated, adopted.T_base_lidar_end),
           RotationErrorDegrees(check.T_base_lidar_calibrated, adopted.T_base_lidar_end), check.cost_answer,
-          check.cost_calibrated, check.lidar));
+          check.cost_calibrated, (check.cost_calibrated - check.cost_answer) / adopted.cost_drop_standard_error,
+          check.lidar));
     }
     if (check.agree) {
       spdlog::info("lidar {}: basin check passed: the 6 restarts{} ended within {:.2f} cm and {:.3f} deg of the answer",
@@ -183,8 +181,10 @@ YAML::Node ReportBasinCheck(Calibrator& calibrator, double offset_deg, bool adop
       continue;
     }
     std::string where;
-    if (lowest != nullptr) {
-      // Only when the lower end was not taken (--keep-calibration-answer, or alt with uncertain camera transforms).
+    const int better = check.adopted_restart >= 0 ? -1 : BetterRestart(check, check_options);
+    if (better >= 0) {
+      // A clearly lower end that was not taken (--keep-calibration-answer, or alt with uncertain camera transforms).
+      const BasinRestart* lowest = &check.restarts[static_cast<std::size_t>(better)];
       where = fmt::format(
           "; the start turned {} ended at a lower cost ({:.6f} against {:.6f}): the answer is not the cost's "
           "minimum, and that end (the result's basin_check.{}.restarts, T_base_lidar) is likely the better answer "

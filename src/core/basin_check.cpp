@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <memory>
 
 #include <fmt/format.h>
@@ -11,6 +12,46 @@
 #include "core/validation.hpp"
 
 namespace scenecal {
+namespace {
+
+// Each pair's per-scene costs at T_base_lidar (visibility as last refreshed).
+std::vector<std::vector<SceneEvaluation>> EvaluateEachScene(const std::vector<const PairCost*>& pairs,
+                                                            const Eigen::Isometry3d& T_base_lidar) {
+  std::vector<std::vector<SceneEvaluation>> scenes;
+  for (const PairCost* pair : pairs) scenes.push_back(pair->EvaluateScenes(pair->Camera().T_camera_base() * T_base_lidar));
+  return scenes;
+}
+
+// Standard error of the joint cost's drop from `from` to `to` (mean over the
+// pairs of each pair's mean over its used scenes): each pair's from the
+// spread of its scenes' drops, and the pairs' summed as fully correlated (an
+// upper bound: they see the same frames).
+double CostDropStandardError(const std::vector<std::vector<SceneEvaluation>>& from,
+                             const std::vector<std::vector<SceneEvaluation>>& to) {
+  double sum = 0.0;
+  int pairs = 0;
+  for (std::size_t p = 0; p < from.size() && p < to.size(); ++p) {
+    std::vector<double> drops;
+    for (std::size_t s = 0; s < from[p].size() && s < to[p].size(); ++s) {
+      if (from[p][s].state != SceneState::kUsed || to[p][s].state != SceneState::kUsed) continue;
+      const double drop = from[p][s].cost - to[p][s].cost;
+      if (std::isfinite(drop)) drops.push_back(drop);
+    }
+    if (drops.empty()) continue;
+    ++pairs;
+    if (drops.size() < 2) return std::numeric_limits<double>::infinity();  // one scene: no spread to judge by
+    double mean = 0.0;
+    for (const double d : drops) mean += d;
+    mean /= static_cast<double>(drops.size());
+    double variance = 0.0;
+    for (const double d : drops) variance += (d - mean) * (d - mean);
+    variance /= static_cast<double>(drops.size() - 1);
+    sum += std::sqrt(variance / static_cast<double>(drops.size()));
+  }
+  return pairs == 0 ? std::numeric_limits<double>::infinity() : sum / pairs;
+}
+
+}  // namespace
 
 bool BasinCheckOptions::IsValid(std::string* why) const {
   if (!(std::isfinite(offset_rad) && offset_rad > 0.0 && offset_rad < kPi / 4))
@@ -20,6 +61,8 @@ bool BasinCheckOptions::IsValid(std::string* why) const {
   if (!(std::isfinite(agree_rotation_rad) && agree_rotation_rad > 0.0))
     return Invalid(why, "basin check: the rotation agreement bound must be a positive angle");
   if (last_stages < 1) return Invalid(why, "basin check: it runs at least the last stage");
+  if (!(std::isfinite(adopt_min_standard_errors) && adopt_min_standard_errors >= 0.0))
+    return Invalid(why, "basin check: the standard errors a lower end must clear must be a number >= 0");
   return true;
 }
 
@@ -47,6 +90,7 @@ LidarBasinCheck CheckLidarBasin(const std::vector<PairCost*>& owned, const Lidar
   };
   prepare_at(sharp, answer.T_base_lidar);
   check.cost_answer = EvaluateJoint(pairs, answer.T_base_lidar);
+  const std::vector<std::vector<SceneEvaluation>> answer_scenes = EvaluateEachScene(pairs, answer.T_base_lidar);
   if (!std::isfinite(check.cost_answer)) {
     check.why = "no usable scene at the answer";
     return check;
@@ -81,6 +125,7 @@ LidarBasinCheck CheckLidarBasin(const std::vector<PairCost*>& owned, const Lidar
       restart.rotation_apart_rad = RadiansFromDegrees(RotationErrorDegrees(T, answer.T_base_lidar));
       prepare_at(sharp, answer.T_base_lidar);
       restart.cost_end = EvaluateJoint(pairs, T);
+      restart.cost_drop_standard_error = CostDropStandardError(answer_scenes, EvaluateEachScene(pairs, T));
       check.evaluations += restart.evaluations;
       check.max_translation_apart_m = std::max(check.max_translation_apart_m, restart.translation_apart_m);
       check.max_rotation_apart_rad = std::max(check.max_rotation_apart_rad, restart.rotation_apart_rad);
@@ -107,7 +152,9 @@ int BetterRestart(const LidarBasinCheck& check, const BasinCheckOptions& check_o
     const bool apart = restart.translation_apart_m > check_options.agree_translation_m ||
                        restart.rotation_apart_rad > check_options.agree_rotation_rad;
     const double cost = restart.cost_end;
-    if (apart && std::isfinite(cost) && cost < best_cost) {
+    const bool clear = check.cost_answer - cost > check_options.adopt_min_standard_errors *
+                                                     restart.cost_drop_standard_error;
+    if (apart && clear && std::isfinite(cost) && cost < best_cost) {
       best_cost = cost;
       best = static_cast<int>(i);
     }

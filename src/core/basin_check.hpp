@@ -39,6 +39,10 @@ struct BasinCheckOptions {
   // cover the offset. Counted from the end, so that stages prepended to widen
   // the basin do not change the check.
   int last_stages = 1;
+  // A restart's end replaces the answer (BetterRestart) only when its cost is
+  // lower by more than this many standard errors of the drop over the scenes:
+  // on a flat valley the ends' costs differ by what no scene agrees on.
+  double adopt_min_standard_errors = 2.0;
 
   bool IsValid(std::string* why = nullptr) const;
 };
@@ -50,6 +54,10 @@ struct BasinRestart {
   double translation_apart_m = 0.0;    // |t_end - t_answer|
   double rotation_apart_rad = 0.0;     // angle of R_end * R_answer^T
   double cost_end = 0.0;               // joint cost at the end, visibility at the answer
+  // Standard error of cost_answer - cost_end from its spread over the scenes
+  // (each pair's scenes taken as independent, the pairs as fully correlated:
+  // they share the frames).
+  double cost_drop_standard_error = 0.0;
   int evaluations = 0;
 };
 
@@ -83,8 +91,8 @@ LidarBasinCheck CheckLidarBasin(const std::vector<PairCost*>& pairs, const Lidar
 
 // The restart whose end is a better answer than the calibration's, or -1: of
 // the restarts that ended apart from the answer (outside the agreement
-// bounds), the one that ended lowest, if that is more than min_cost_drop
-// below the answer's cost. The answer then is not the cost's minimum but a
+// bounds) with a cost lower by more than adopt_min_standard_errors standard
+// errors and by more than min_cost_drop, the one that ended lowest. The answer then is not the cost's minimum but a
 // point where the solver stopped short, as on flat valleys (docs/findings.md,
 // "A spinning lidar's forward translation bias"). An end within the bounds is
 // the same minimum, whatever its cost.
