@@ -6,7 +6,7 @@
 #
 # Rows: simulator preset (PRESETS, default "robotcar trinocular spin3d") x odometry (ODOMETRY, "exact drifting":
 # --odometry-noise 0, or the simulator's visual-odometry-like drift), over the worlds in WORLDS (default "1 2 3",
-# --seed of simulate). Columns: SETTINGS (default "auto push-broom push-broom-alt push-broom-drifting paper"; auto is the no-flag
+# --seed of simulate). Columns: SETTINGS (default "auto push-broom push-broom-alt push-broom-drifting 3d-lidar paper"; auto is the no-flag
 # default). Each run starts PERTURB_T m / PERTURB_R deg (default 0.1, 3) from the truth in a random direction per
 # seed of STARTS (default "1 2 3 4 5") and skips the uncertainty and the basin check. rig.yaml's
 # trajectory_source is removed from the simulated data unless SOURCE=given, so that auto has to find the drift
@@ -25,7 +25,7 @@ scenecal=${SCENECAL:-build/bin/scenecal}
 presets=${PRESETS:-"robotcar trinocular spin3d"}
 odometries=${ODOMETRY:-"exact drifting"}
 worlds=${WORLDS:-"1 2 3"}
-settings=${SETTINGS:-"auto push-broom push-broom-alt push-broom-drifting paper"}
+settings=${SETTINGS:-"auto push-broom push-broom-alt push-broom-drifting 3d-lidar paper"}
 starts=${STARTS:-"1 2 3 4 5"}
 perturb_t=${PERTURB_T:-0.1}
 perturb_r=${PERTURB_R:-3}

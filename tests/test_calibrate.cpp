@@ -558,12 +558,16 @@ TEST_F(CalibrateOnSimulation, CliAutoSettingChoosesFromTheRigAndTheData) {
   EXPECT_EQ(budget["settings"]["drift_test"].as<std::string>(), "skipped: time budget spent");
   EXPECT_EQ(budget["options"]["setting"].as<std::string>(), "push-broom");
 
-  // A 3D lidar on the same drive: no preset, and the reason.
+  // A 3D lidar on the same drive: the 3d-lidar preset, and the reason.
   const fs::path spinning = CopyDatasetWithRig("auto_3d", WithoutPushBroom);
-  const YAML::Node none = calibrate(spinning, "auto_3d.yaml", quick + " --scheme joint");
-  ASSERT_TRUE(none["settings"]) << text;
-  EXPECT_FALSE(none["settings"]["setting"]);
-  EXPECT_NE(none["settings"]["setting_chosen_by"].as<std::string>().find("3D lidar"), std::string::npos);
+  const YAML::Node three_d = calibrate(spinning, "auto_3d.yaml", quick);
+  ASSERT_TRUE(three_d["settings"]) << text;
+  EXPECT_EQ(three_d["settings"]["setting"].as<std::string>().rfind("3d-lidar: --swathe-length 10", 0), 0u)
+      << three_d["settings"]["setting"].as<std::string>();
+  EXPECT_NE(three_d["settings"]["setting_chosen_by"].as<std::string>().find("3D lidar(s) on a drive"),
+            std::string::npos);
+  EXPECT_EQ(three_d["options"]["setting"].as<std::string>(), "3d-lidar");
+  EXPECT_EQ(three_d["settings"]["scheme"].as<std::string>(), "joint");
 
   // The paper's pipeline, named: its options, and no choice made.
   const YAML::Node paper = calibrate(DatasetPath(), "paper.yaml", quick + " --scheme joint --setting paper");

@@ -12,6 +12,8 @@
 #include <algorithm>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <string>
 #include <vector>
 
@@ -87,6 +89,24 @@ TEST_F(OpenCalibCalibration, ExplicitBinsOverrideTheSingleFrameDefault) {
   const CalibrationResult result = Calibrate(1, "--bins 16");
   EXPECT_EQ(result.settings.at("bins"), "16x16");
   EXPECT_EQ(result.settings.count("single_frame_defaults"), 0u);
+}
+
+// A preset for drives on a single frame: exit 2 naming why, no result file.
+TEST_F(OpenCalibCalibration, DrivePresetsRefuseASingleFrame) {
+  for (const char* setting : {"3d-lidar", "push-broom"}) {
+    SCOPED_TRACE(setting);
+    const fs::path output = root_ / (std::string("refused_") + setting + ".yaml");
+    const fs::path log = root_ / (std::string("refused_") + setting + ".txt");
+    EXPECT_EQ(RunCli("calibrate " + (root_ / "set3").string() + " --output " + output.string() + " --setting " +
+                         setting,
+                     log),
+              2);
+    std::ifstream in(log);
+    const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const char* expected = std::string(setting) == "3d-lidar" ? "a single-pose trajectory" : "no push-broom lidar";
+    EXPECT_NE(text.find(expected), std::string::npos) << text;
+    EXPECT_FALSE(fs::exists(output));
+  }
 }
 
 }  // namespace

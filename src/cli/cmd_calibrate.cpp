@@ -184,11 +184,10 @@ int CheckSettingFitsDataset(const CalibrateArguments& args, const io::Dataset& d
                             const CalibrationOptions& options) {
   const AppliedConfiguration& applied = args.applied;
   if (applied.setting.empty()) return kExitSuccess;
-  if (applied.requires_push_broom_drive) {
-    if (const std::string misfit = PushBroomDriveMisfit(dataset.rig, dataset.trajectory.size()); !misfit.empty()) {
-      spdlog::error("--setting {} on {}: {}", applied.setting, args.dataset, misfit);
-      return kExitInvalidInput;
-    }
+  if (const std::string misfit = DataMisfit(applied.requires_data, dataset.rig, dataset.trajectory.size());
+      !misfit.empty()) {
+    spdlog::error("--setting {} on {}: {}", applied.setting, args.dataset, misfit);
+    return kExitInvalidInput;
   }
   spdlog::info("--setting {}: {} (refresh border {:g} px)", applied.setting, fmt::join(applied.setting_words, " "),
                options.cost.swathe.refresh_border_px);

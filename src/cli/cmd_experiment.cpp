@@ -326,8 +326,7 @@ int FitToDataset(const ExperimentArguments& args, const io::Dataset& dataset, co
   options->cost.swathe.refresh_border_px = RefreshBorderPx(args.cost.refresh_border, dataset.rig);
   const AppliedConfiguration& applied = args.applied;
   if (!applied.setting.empty()) {
-    const std::string misfit =
-        applied.requires_push_broom_drive ? PushBroomDriveMisfit(dataset.rig, dataset.trajectory.size()) : "";
+    const std::string misfit = DataMisfit(applied.requires_data, dataset.rig, dataset.trajectory.size());
     if (!misfit.empty()) {
       spdlog::error("--setting {} on {}: {}", applied.setting, dataset_shown, misfit);
       return kExitInvalidInput;

@@ -138,8 +138,8 @@ void AddConfigOptions(CLI::App* command, ConfigArguments* args, bool automatic) 
                    SettingHelp() + ". auto (the default) chooses from the data and says why: a 2D (push-broom) lidar on "
                                    "a drive gets push-broom, or push-broom-drifting when rig.yaml's trajectory_source "
                                    "is visual-odometry; when it is not given, a held-out test decides whether the "
-                                   "trajectory drifts within the swathes (then a second solve, from the first's answer); 3D lidars and "
-                                   "single frames get none (paper's defaults; single frames their own)")
+                                   "trajectory drifts within the swathes (then a second solve, from the first's answer); 3D lidars on a "
+                                   "drive get 3d-lidar; single frames get none (their own defaults)")
       ->check(CLI::IsMember(names))
       ->capture_default_str();
 }
@@ -162,7 +162,7 @@ void ApplyPreset(CLI::App* command, const std::string& name, AppliedConfiguratio
   applied->set_options.clear();
   applied->setting = name;
   applied->setting_words = ApplyOptionFile(command, preset, true, &applied->set_options);
-  applied->requires_push_broom_drive = preset.requires_data == io::kRequiresPushBroomDrive;
+  applied->requires_data = preset.requires_data;
   if (applied->automatic) SetOptionValue(command->get_option("--setting"), name);
 }
 
@@ -187,7 +187,8 @@ AutomaticChoice ChooseSetting(const Rig& rig, std::size_t trajectory_poses, bool
     return choice;
   }
   if (!rig.HasPushBroomLidar()) {
-    choice.reason = "3D lidar(s) on a drive: no preset measured better than the defaults";
+    choice.preset = "3d-lidar";
+    choice.reason = "3D lidar(s) on a drive";
     return choice;
   }
   const std::string source = TrajectorySourceName(rig.trajectory_source);
@@ -223,15 +224,17 @@ bool OptionSet(const CLI::App* command, const std::string& name) {
   return option != nullptr && option->count() > 0;
 }
 
-std::string PushBroomDriveMisfit(const Rig& rig, std::size_t trajectory_poses) {
-  const char* why = !rig.HasPushBroomLidar() ? "no push-broom lidar (rig.yaml: no lidar of kind 2d)"
-                    : trajectory_poses < 2     ? "a single-pose trajectory"
-                                               : nullptr;
+std::string DataMisfit(const std::string& requires_data, const Rig& rig, std::size_t trajectory_poses) {
+  const bool push_broom = requires_data == io::kRequiresPushBroomDrive;
+  if (!push_broom && requires_data != io::kRequiresDrive) return "";
+  const char* why = push_broom && !rig.HasPushBroomLidar() ? "no push-broom lidar (rig.yaml: no lidar of kind 2d)"
+                    : trajectory_poses < 2                  ? "a single-pose trajectory"
+                                                            : nullptr;
   if (why == nullptr) return "";
-  return fmt::format("the data have {}; the preset is for swathes that a moving 2D (push-broom) lidar builds over a "
-                     "drive (on single frames its fixed point sets and L-BFGS run away: docs/findings.md, \"Real "
-                     "single frames\")",
-                     why);
+  return fmt::format("the data have {}; the preset is for swathes that a moving {}lidar builds over a drive (on "
+                     "single frames its fixed point sets and L-BFGS run away: docs/findings.md, \"Real single "
+                     "frames\")",
+                     why, push_broom ? "2D (push-broom) " : "");
 }
 
 }  // namespace scenecal::cli

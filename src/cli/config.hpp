@@ -32,7 +32,7 @@ struct AppliedConfiguration {
   std::string setting;                     // the preset's name; empty without one
   std::vector<std::string> setting_words;  // e.g. "--thin 2": what it set, as typed
   std::vector<std::string> set_options;    // the options it set, e.g. "--thin"
-  bool requires_push_broom_drive = false;  // its `requires: push-broom-drive`
+  std::string requires_data;               // its `requires` (io::kRequiresPushBroomDrive, kRequiresDrive), empty: any
   bool automatic = false;                  // --setting auto: the preset is chosen from the data (ChooseSetting)
   std::string automatic_reason;            // why ChooseSetting chose it
 };
@@ -47,8 +47,8 @@ std::string PushBroomPresetFor(TrajectorySource source);
 // trajectory_source; when the source is unknown, `push-broom` first and the
 // held-out drift test (TestDriftAt) then decides on `push-broom-drifting`
 // (without one process to test in, push-broom-drifting: the cheaper mistake).
-// 3D lidars and single frames get no preset (the command's defaults, and for
-// single frames their own).
+// 3D lidars on a drive get `3d-lidar`; single frames no preset (their own
+// defaults).
 struct AutomaticChoice {
   std::string preset;        // empty: none
   std::string reason;
@@ -78,9 +78,11 @@ std::vector<io::OptionValue> RunOptions(const CLI::App* command);
 // command line or by a configuration (false for a null command).
 bool OptionSet(const CLI::App* command, const std::string& name);
 
-// Why a preset that requires a push-broom drive does not fit a dataset with
-// this rig and this many trajectory poses (no 2D lidar; a single pose: on
-// single frames its fixed point sets and L-BFGS run away); empty when it fits.
-std::string PushBroomDriveMisfit(const Rig& rig, std::size_t trajectory_poses);
+// Why a preset that requires `requires_data` (its `requires` key) does not
+// fit a dataset with this rig and this many trajectory poses: a push-broom
+// drive needs a 2D lidar and a drive, a drive more than one pose (on single
+// frames the presets' fixed point sets and L-BFGS run away); empty when it
+// fits or nothing is required.
+std::string DataMisfit(const std::string& requires_data, const Rig& rig, std::size_t trajectory_poses);
 
 }  // namespace scenecal::cli

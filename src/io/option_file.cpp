@@ -63,8 +63,9 @@ OptionFile ParseOptions(const detail::YamlReader& yaml) {
     }
     if (key == "description" || key == "requires") {
       std::string text = yaml.String(value, where(key));
-      if (key == "requires" && text != kRequiresPushBroomDrive) {
-        yaml.Fail(value, where(key), "'" + text + "'", std::string("'") + kRequiresPushBroomDrive + "'");
+      if (key == "requires" && text != kRequiresPushBroomDrive && text != kRequiresDrive) {
+        yaml.Fail(value, where(key), "'" + text + "'",
+                  std::string("'") + kRequiresPushBroomDrive + "' or '" + kRequiresDrive + "'");
       }
       (key == "description" ? file.description : file.requires_data) = std::move(text);
       continue;

@@ -22,12 +22,14 @@ struct OptionValue {
 struct OptionFile {
   std::string source;       // the file's path, or what stands for it ("preset push-broom")
   std::string description;  // the optional `description` key (presets)
-  std::string requires_data;  // the optional `requires` key: kRequiresPushBroomDrive or empty
+  std::string requires_data;  // the optional `requires` key: kRequiresPushBroomDrive, kRequiresDrive or empty
   std::vector<OptionValue> options;  // in the file's order
 };
 
 // A preset's `requires` value: a moving 2D (push-broom) lidar over a drive.
 inline constexpr char kRequiresPushBroomDrive[] = "push-broom-drive";
+// A preset's `requires` value: a drive (a trajectory of more than one pose), any lidar.
+inline constexpr char kRequiresDrive[] = "drive";
 
 // Reads an option file, or a result file's `options` block. Throws InputError
 // naming the file, the key and its line: not a mapping, a key given twice, a
