@@ -188,21 +188,27 @@ TEST_F(UncertaintyOnSimulation, CliWritesTheEstimate) {
   EXPECT_EQ(result["settings"]["lidar_range_m"].as<std::string>(), "1 .. 100");
 }
 
-// The error estimate: local + the basin restarts' second moment + other
-// answers' offsets, mapped to the tuple; the verdict from 2 sigma against
-// 1 cm / 0.2 deg, `unreliable` for a flat direction or a drifting trajectory.
-TEST(ErrorEstimate, SumsItsPartsAndJudges) {
-  const UncertaintyOptions units;
-  const Eigen::Isometry3d answer = TransformFromTuple((Vector6d() << 1.0, 0.2, 0.5, 0.0, 0.1, 0.3).finished());
+// A local estimate determined along each tuple axis with this sigma (in units).
+LidarUncertainty DeterminedAlongEachAxis(const UncertaintyOptions& units, double sigma_units) {
   LidarUncertainty local;
   local.estimated = local.determined = true;
   for (int k = 0; k < 6; ++k) {
     UncertainDirection direction;
     direction.direction = Vector6d::Unit(k) * (k < 3 ? units.unit_translation_m : units.unit_rotation_rad);
     direction.determined = true;
-    direction.sigma_units = 0.1;  // 1 mm, 0.01 deg
+    direction.sigma_units = sigma_units;
     local.directions.push_back(direction);
   }
+  return local;
+}
+
+// The error estimate: local + the basin restarts' second moment + other
+// answers' offsets, mapped to the tuple; the verdict from 2 sigma against
+// 1 cm / 0.2 deg, `unreliable` for a flat direction or a drifting trajectory.
+TEST(ErrorEstimate, SumsItsPartsAndJudges) {
+  const UncertaintyOptions units;
+  const Eigen::Isometry3d answer = TransformFromTuple((Vector6d() << 1.0, 0.2, 0.5, 0.0, 0.1, 0.3).finished());
+  LidarUncertainty local = DeterminedAlongEachAxis(units, 0.1);  // 1 mm, 0.01 deg
   LidarErrorEstimate estimate = EstimateLidarError(answer, local, nullptr, {}, false, units);
   ASSERT_TRUE(estimate.estimated);
   EXPECT_NEAR(estimate.covariance_d(0, 0), 1e-6, 1e-12);
@@ -311,6 +317,8 @@ TEST(BasinAdoption, TakesTheLowestEndApartAndReMeasuresFromIt) {
   EXPECT_NEAR(check.restarts[1].translation_apart_m, 0.005, 1e-9);
   EXPECT_NEAR(check.restarts[0].translation_apart_m, 0.043, 1e-9);
   EXPECT_NEAR(check.max_translation_apart_m, 0.045, 1e-9);  // the calibration's own answer
+  EXPECT_NEAR(check.calibrated_translation_apart_m, 0.045, 1e-9);
+  EXPECT_NEAR(check.calibrated_rotation_apart_rad, 0.0, 1e-9);
   EXPECT_FALSE(check.agree);
 
   // The ends beside the new answer: the other restarts' and the calibration's own answer.
@@ -321,15 +329,7 @@ TEST(BasinAdoption, TakesTheLowestEndApartAndReMeasuresFromIt) {
 
   // The basin part of the error estimate is the ends' second moment about the new answer.
   const UncertaintyOptions units;
-  LidarUncertainty local;
-  local.estimated = local.determined = true;
-  for (int k = 0; k < 6; ++k) {
-    UncertainDirection direction;
-    direction.direction = Vector6d::Unit(k) * (k < 3 ? units.unit_translation_m : units.unit_rotation_rad);
-    direction.determined = true;
-    direction.sigma_units = 0.1;
-    local.directions.push_back(direction);
-  }
+  const LidarUncertainty local = DeterminedAlongEachAxis(units, 0.1);
   const LidarErrorEstimate estimate = EstimateLidarError(answer, local, &check, {}, false, units);
   ASSERT_TRUE(estimate.estimated);
   double second_moment = 0.0;

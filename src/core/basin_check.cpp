@@ -51,6 +51,21 @@ double CostDropStandardError(const std::vector<std::vector<SceneEvaluation>>& fr
   return pairs == 0 ? std::numeric_limits<double>::infinity() : sum / pairs;
 }
 
+// Sets how far `end` lies from `answer`.
+void MeasureApart(const Eigen::Isometry3d& end, const Eigen::Isometry3d& answer, double* translation_m,
+                  double* rotation_rad) {
+  *translation_m = TranslationError(end, answer);
+  *rotation_rad = RadiansFromDegrees(RotationErrorDegrees(end, answer));
+}
+
+// Folds one end's distance from the answer into the check's spread and agreement.
+void CountEnd(double translation_m, double rotation_rad, const BasinCheckOptions& check_options,
+              LidarBasinCheck* check) {
+  check->max_translation_apart_m = std::max(check->max_translation_apart_m, translation_m);
+  check->max_rotation_apart_rad = std::max(check->max_rotation_apart_rad, rotation_rad);
+  check->agree = check->agree && check_options.Agrees(translation_m, rotation_rad);
+}
+
 }  // namespace
 
 bool BasinCheckOptions::IsValid(std::string* why) const {
@@ -90,11 +105,11 @@ LidarBasinCheck CheckLidarBasin(const std::vector<PairCost*>& owned, const Lidar
   };
   prepare_at(sharp, answer.T_base_lidar);
   check.cost_answer = EvaluateJoint(pairs, answer.T_base_lidar);
-  const std::vector<std::vector<SceneEvaluation>> answer_scenes = EvaluateEachScene(pairs, answer.T_base_lidar);
   if (!std::isfinite(check.cost_answer)) {
     check.why = "no usable scene at the answer";
     return check;
   }
+  const std::vector<std::vector<SceneEvaluation>> answer_scenes = EvaluateEachScene(pairs, answer.T_base_lidar);
   NelderMeadOptions nelder_mead = options.nelder_mead;
   if (options.pivot_at_observed_centroid) {
     nelder_mead.pivot_source = ObservedCentroid(pairs, answer.T_base_lidar).value_or(nelder_mead.pivot_source);
@@ -121,16 +136,12 @@ LidarBasinCheck CheckLidarBasin(const std::vector<PairCost*>& owned, const Lidar
           prepare_at, &T, &report);
       restart.evaluations = report.evaluations;
       restart.T_base_lidar_end = T;
-      restart.translation_apart_m = TranslationError(T, answer.T_base_lidar);
-      restart.rotation_apart_rad = RadiansFromDegrees(RotationErrorDegrees(T, answer.T_base_lidar));
+      MeasureApart(T, answer.T_base_lidar, &restart.translation_apart_m, &restart.rotation_apart_rad);
       prepare_at(sharp, answer.T_base_lidar);
       restart.cost_end = EvaluateJoint(pairs, T);
       restart.cost_drop_standard_error = CostDropStandardError(answer_scenes, EvaluateEachScene(pairs, T));
       check.evaluations += restart.evaluations;
-      check.max_translation_apart_m = std::max(check.max_translation_apart_m, restart.translation_apart_m);
-      check.max_rotation_apart_rad = std::max(check.max_rotation_apart_rad, restart.rotation_apart_rad);
-      check.agree = check.agree && restart.translation_apart_m <= check_options.agree_translation_m &&
-                    restart.rotation_apart_rad <= check_options.agree_rotation_rad;
+      CountEnd(restart.translation_apart_m, restart.rotation_apart_rad, check_options, &check);
       say(fmt::format("basin check {}: the start turned {:+.2f} deg about base {} ended {:.2f} cm, {:.3f} deg from "
                       "the answer, cost {:.6f} (answer {:.6f})",
                       answer.lidar, sign * DegreesFromRadians(check_options.offset_rad), "xyz"[axis],
@@ -149,8 +160,7 @@ int BetterRestart(const LidarBasinCheck& check, const BasinCheckOptions& check_o
   double best_cost = check.cost_answer - min_cost_drop;
   for (std::size_t i = 0; i < check.restarts.size(); ++i) {
     const BasinRestart& restart = check.restarts[i];
-    const bool apart = restart.translation_apart_m > check_options.agree_translation_m ||
-                       restart.rotation_apart_rad > check_options.agree_rotation_rad;
+    const bool apart = !check_options.Agrees(restart.translation_apart_m, restart.rotation_apart_rad);
     const double cost = restart.cost_end;
     const bool clear = check.cost_answer - cost > check_options.adopt_min_standard_errors *
                                                      restart.cost_drop_standard_error;
@@ -164,27 +174,20 @@ int BetterRestart(const LidarBasinCheck& check, const BasinCheckOptions& check_o
 
 void AdoptRestart(int index, const BasinCheckOptions& check_options, LidarBasinCheck* check,
                   Eigen::Isometry3d* T_base_lidar) {
-  BasinRestart& adopted = check->restarts.at(static_cast<std::size_t>(index));
+  const BasinRestart& adopted = check->restarts.at(static_cast<std::size_t>(index));
   check->adopted_restart = index;
   check->T_base_lidar_calibrated = *T_base_lidar;
   check->cost_calibrated = check->cost_answer;
   *T_base_lidar = adopted.T_base_lidar_end;
   check->cost_answer = adopted.cost_end;
-  const auto within = [&](double translation_m, double rotation_rad) {
-    return translation_m <= check_options.agree_translation_m && rotation_rad <= check_options.agree_rotation_rad;
-  };
-  const double calibrated_translation_m = TranslationError(check->T_base_lidar_calibrated, *T_base_lidar);
-  const double calibrated_rotation_rad =
-      RadiansFromDegrees(RotationErrorDegrees(check->T_base_lidar_calibrated, *T_base_lidar));
-  check->max_translation_apart_m = calibrated_translation_m;
-  check->max_rotation_apart_rad = calibrated_rotation_rad;
-  check->agree = within(calibrated_translation_m, calibrated_rotation_rad);
+  MeasureApart(check->T_base_lidar_calibrated, *T_base_lidar, &check->calibrated_translation_apart_m,
+               &check->calibrated_rotation_apart_rad);
+  check->max_translation_apart_m = check->max_rotation_apart_rad = 0.0;
+  check->agree = true;
+  CountEnd(check->calibrated_translation_apart_m, check->calibrated_rotation_apart_rad, check_options, check);
   for (BasinRestart& restart : check->restarts) {
-    restart.translation_apart_m = TranslationError(restart.T_base_lidar_end, *T_base_lidar);
-    restart.rotation_apart_rad = RadiansFromDegrees(RotationErrorDegrees(restart.T_base_lidar_end, *T_base_lidar));
-    check->max_translation_apart_m = std::max(check->max_translation_apart_m, restart.translation_apart_m);
-    check->max_rotation_apart_rad = std::max(check->max_rotation_apart_rad, restart.rotation_apart_rad);
-    check->agree = check->agree && within(restart.translation_apart_m, restart.rotation_apart_rad);
+    MeasureApart(restart.T_base_lidar_end, *T_base_lidar, &restart.translation_apart_m, &restart.rotation_apart_rad);
+    CountEnd(restart.translation_apart_m, restart.rotation_apart_rad, check_options, check);
   }
 }
 

@@ -45,6 +45,10 @@ struct BasinCheckOptions {
   double adopt_min_standard_errors = 2.0;
 
   bool IsValid(std::string* why = nullptr) const;
+  // Whether an end this far from the answer agrees with it.
+  bool Agrees(double translation_apart_m, double rotation_apart_rad) const {
+    return translation_apart_m <= agree_translation_m && rotation_apart_rad <= agree_rotation_rad;
+  }
 };
 
 struct BasinRestart {
@@ -79,6 +83,8 @@ struct LidarBasinCheck {
   int adopted_restart = -1;
   Eigen::Isometry3d T_base_lidar_calibrated = Eigen::Isometry3d::Identity();
   double cost_calibrated = 0.0;
+  double calibrated_translation_apart_m = 0.0;  // of the calibration's own answer from the new one
+  double calibrated_rotation_apart_rad = 0.0;
 };
 
 // The restarts above for one lidar's answer, on its pair costs (those with

@@ -535,8 +535,8 @@ std::vector<std::string> Calibrator::AdoptBetterRestarts(const BasinCheckOptions
                     "{:.6f}), {:.2f} cm and {:.3f} deg from the calibration's answer: it is the answer now",
                     check.lidar, check.restarts[better].sign * DegreesFromRadians(check_options.offset_rad),
                     "xyz"[check.restarts[better].axis], check.cost_answer, check.cost_calibrated,
-                    100.0 * TranslationError(check.T_base_lidar_calibrated, answer->T_base_lidar),
-                    RotationErrorDegrees(check.T_base_lidar_calibrated, answer->T_base_lidar)));
+                    100.0 * check.calibrated_translation_apart_m,
+                    DegreesFromRadians(check.calibrated_rotation_apart_rad)));
     adopted.push_back(check.lidar);
   }
   return adopted;
