@@ -99,7 +99,9 @@ void RecordCommonSettings(const CalibrationOptions& options, CalibrationResult* 
   if (options.lower_solver == LowerSolver::kLbfgs) {
     settings["lower_solver"] = "lbfgs (Ceres GradientProblemSolver, analytic B-spline gradient, at most " +
                                std::to_string(options.gradient.max_iterations) +
-                               " iterations a run, function tolerance " + NumberText(options.gradient.function_tolerance) +
+                               " iterations a run, at most " + std::to_string(options.gradient.line_search_max_steps) +
+                               " trial steps a line search, function tolerance " +
+                               NumberText(options.gradient.function_tolerance) +
                                "; one cost + gradient evaluation costs ~" + NumberText(kGradientEvaluationCost) +
                                " plain evaluations)";
     const GradientSolverOptions& g = options.gradient;

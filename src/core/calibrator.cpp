@@ -280,6 +280,8 @@ void Calibrator::Optimise(const std::string& name, double initial_cost, const Ne
   if (options.lower_solver == LowerSolver::kLbfgs) {
     if (!report.gradient_runs.empty()) final_value = report.gradient_runs.back().final_value;
     brief = GradientRunsBrief(report.gradient_runs);
+    for (std::size_t r = 0; r < report.gradient_runs.size(); ++r)
+      Say(report.problem + ": run " + std::to_string(r + 1) + ": " + report.gradient_runs[r].BriefReport());
   } else {
     if (!report.stages.empty()) final_value = report.stages.back().final_value;
     brief = StagesBrief(report.stages);

@@ -28,6 +28,7 @@ bool ParseLowerSolver(const std::string& name, LowerSolver* solver) {
 bool GradientSolverOptions::IsValid(std::string* why) const {
   if (max_iterations < 1) return Invalid(why, "max_iterations must be at least 1");
   if (lbfgs_rank < 1) return Invalid(why, "lbfgs_rank must be at least 1");
+  if (line_search_max_steps < 1) return Invalid(why, "line_search_max_steps must be at least 1");
   if (!(function_tolerance >= 0.0) || !(gradient_tolerance >= 0.0) || !(parameter_tolerance >= 0.0))
     return Invalid(why, "tolerances must be >= 0");
   if (!(initial_step_translation_m > 0.0) || !(initial_step_rotation_rad > 0.0))
@@ -261,6 +262,7 @@ GradientSolverSummary MinimiseWithGradient(const CostWithGradient& cost, const G
   // simplex's cost in half its evaluations with it; stuck 4 cm away without).
   solver_options.use_approximate_eigenvalue_bfgs_scaling = options.approximate_eigenvalue_scaling;
   solver_options.max_lbfgs_rank = options.lbfgs_rank;
+  solver_options.max_num_line_search_step_size_iterations = options.line_search_max_steps;
   Vector6d x = Vector6d::Zero();
   ceres::GradientProblemSolver::Summary ceres_summary;
   ceres::Solve(solver_options, problem, x.data(), &ceres_summary);

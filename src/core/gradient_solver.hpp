@@ -64,6 +64,14 @@ struct GradientSolverOptions {
   double run_radius_translation_m = 0.0;
   double run_radius_rotation_rad = 0.0;
   int lbfgs_rank = 20;  // curvature pairs kept (Ceres' max_lbfgs_rank)
+  // Trial steps per line search (Ceres' max_num_line_search_step_size_iterations,
+  // 20 by default). Below ~1e-3 of a parameter scale the cost is rough (points
+  // crossing the image border change it by ~1e-7 at a time), so the strong
+  // Wolfe curvature test can fail however long the search: with 20, the
+  // push-broom setting spent 50-85 % of its coarse stages' evaluations in
+  // searches that found nothing better than their first few trials. An
+  // exhausted search still takes the best step with a sufficient decrease.
+  int line_search_max_steps = 4;
   // Scale the initial inverse Hessian by an estimate of its eigenvalue (Ceres'
   // use_approximate_eigenvalue_bfgs_scaling). Needed on NID: see the .cpp.
   bool approximate_eigenvalue_scaling = true;
