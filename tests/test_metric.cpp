@@ -2,6 +2,7 @@
 // the analytic gradient, and the reflectance / intensity normalisation.
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <random>
 #include <vector>
@@ -500,6 +501,74 @@ TEST(Normalisation, HighPassKeepsTheTextureAndDropsTheRegionsBrightness) {
   EXPECT_LT(cv::norm(HighPassImage(bytes, 6.0), HighPassImage(from_bytes_expected, 6.0), cv::NORM_INF), 1e-6);
   EXPECT_EQ(HighPassImage(image, 0.0).data, image.data);
   EXPECT_TRUE(HighPassImage(cv::Mat(2, 2, CV_64FC1), 3.0).empty());
+}
+
+// Wide blurs through an image area-averaged down: within a fraction of a
+// percent of OpenCV's own Gaussian, within the input's bounds, and OpenCV's
+// own below kWideBlurSigmaPx.
+TEST(Normalisation, GaussianBlurAnyWidthMatchesTheGaussian) {
+  // Street-like: regions of different brightness (blurred noise at two
+  // scales) and fine texture, values in [0, 1], an odd size.
+  cv::Mat coarse(961, 1283, CV_32FC1), fine(961, 1283, CV_32FC1);
+  cv::RNG rng(3);
+  rng.fill(coarse, cv::RNG::UNIFORM, 0.0, 1.0);
+  rng.fill(fine, cv::RNG::UNIFORM, 0.0, 1.0);
+  cv::GaussianBlur(coarse, coarse, cv::Size(0, 0), 40.0);
+  cv::normalize(coarse, coarse, 0.0, 0.8, cv::NORM_MINMAX);
+  cv::Mat image = coarse + 0.2 * fine;
+  for (const double sigma : {8.0, 12.0, 25.6, 30.0, 60.0}) {
+    cv::Mat expected;
+    cv::GaussianBlur(image, expected, cv::Size(0, 0), sigma, sigma, cv::BORDER_REFLECT);
+    const cv::Mat blurred = GaussianBlurAnyWidth(image, sigma);
+    ASSERT_EQ(blurred.size(), image.size());
+    ASSERT_EQ(blurred.type(), CV_32FC1);
+    double range_low = 0, range_high = 0, low = 0, high = 0;
+    cv::minMaxLoc(expected, &range_low, &range_high);
+    cv::minMaxLoc(blurred, &low, &high);
+    const double range = range_high - range_low;
+    // Away from the borders (3 sigma) and at them.
+    const int margin = static_cast<int>(3 * sigma);
+    const cv::Rect inner(margin, margin, image.cols - 2 * margin, image.rows - 2 * margin);
+    EXPECT_LT(cv::norm(blurred(inner), expected(inner), cv::NORM_INF), 0.005 * range) << sigma;
+    EXPECT_LT(cv::norm(blurred, expected, cv::NORM_INF), 0.02 * range) << sigma;
+    EXPECT_GE(low, 0.0);
+    EXPECT_LE(high, 1.0);
+  }
+  // Narrow blurs are OpenCV's, bit for bit.
+  for (const double sigma : {0.5, 2.0, 7.9}) {
+    cv::Mat expected;
+    cv::GaussianBlur(image, expected, cv::Size(0, 0), sigma, sigma, cv::BORDER_REFLECT);
+    EXPECT_EQ(cv::norm(GaussianBlurAnyWidth(image, sigma), expected, cv::NORM_INF), 0.0) << sigma;
+  }
+}
+
+TEST(Normalisation, FitAndApplyIsFitThenApplyBitForBit) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> uniform(-3.0f, 40.0f);
+  std::uniform_int_distribution<int> level(0, 255);
+  const float inf = std::numeric_limits<float>::infinity(), nan = std::numeric_limits<float>::quiet_NaN();
+  std::vector<std::vector<float>> sets;
+  std::vector<float> mixed;
+  for (int k = 0; k < 20000; ++k) mixed.push_back(k % 3 == 0 ? static_cast<float>(level(rng)) : uniform(rng));
+  for (const float special : {nan, inf, -inf, 0.0f, -0.0f, nan, 255.0f}) mixed.push_back(special);
+  std::shuffle(mixed.begin(), mixed.end(), rng);
+  sets.push_back(mixed);
+  sets.push_back({});
+  sets.push_back({nan, inf, -inf});
+  sets.push_back({2.0f, 2.0f, 2.0f});
+  sets.push_back({-0.0f, 0.0f, 1.0f, -1.0f, nan});
+  for (const auto& values : sets) {
+    for (const Normalisation kind : {Normalisation::kNone, Normalisation::kMinMax, Normalisation::kRank}) {
+      const ValueNormaliser normaliser = ValueNormaliser::Fit(values, kind, 2.0, 98.0);
+      const std::vector<float> fast = ValueNormaliser::FitAndApply(values, kind, 2.0, 98.0);
+      ASSERT_EQ(fast.size(), values.size());
+      for (std::size_t k = 0; k < values.size(); ++k) {
+        const float expected = normaliser(values[k]);
+        ASSERT_EQ(std::memcmp(&fast[k], &expected, sizeof expected), 0)
+            << NormalisationName(kind) << " value " << values[k] << ": " << fast[k] << " against " << expected;
+      }
+    }
+  }
 }
 
 TEST(Normalisation, RankYieldsUniformValues) {

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
@@ -106,6 +108,59 @@ void ValueNormaliser::Apply(std::span<const float> values, std::span<float> out)
   for (std::size_t k = 0; k < count; ++k) out[k] = (*this)(values[k]);
 }
 
+namespace {
+
+// A key whose unsigned order is the float's order (finite values), with the
+// value's index in the low 32 bits.
+std::uint64_t OrderedKey(float value, std::uint32_t index) {
+  std::uint32_t bits = 0;
+  std::memcpy(&bits, &value, sizeof bits);
+  bits = (bits & 0x80000000u) != 0 ? ~bits : (bits | 0x80000000u);
+  return (static_cast<std::uint64_t>(bits) << 32) | index;
+}
+
+}  // namespace
+
+std::vector<float> ValueNormaliser::FitAndApply(std::span<const float> values, Normalisation normalisation,
+                                                double lower_percentile, double upper_percentile) {
+  std::vector<float> out(values.size());
+  if (normalisation != Normalisation::kRank || values.size() >= (std::size_t{1} << 32)) {
+    Fit(values, normalisation, lower_percentile, upper_percentile).Apply(values, out);
+    return out;
+  }
+  std::vector<std::uint64_t> keys;
+  keys.reserve(values.size());
+  for (std::size_t k = 0; k < values.size(); ++k) {
+    // -0 and +0 are one value (as in Fit's sort and upper_bound).
+    if (std::isfinite(values[k])) keys.push_back(OrderedKey(values[k] == 0.0f ? 0.0f : values[k], static_cast<std::uint32_t>(k)));
+  }
+  if (keys.empty()) {  // no finite value: as Fit's empty normaliser
+    for (std::size_t k = 0; k < values.size(); ++k) out[k] = std::isnan(values[k]) ? 0.0f : 0.5f;
+    return out;
+  }
+  std::sort(keys.begin(), keys.end());
+  // Fit's mid-rank CDF, the same expression: runs of equal values share it.
+  const double count = static_cast<double>(keys.size());
+  float lowest_cdf = 0.0f, highest_cdf = 0.0f;
+  for (std::size_t begin = 0; begin < keys.size();) {
+    std::size_t end = begin + 1;
+    while (end < keys.size() && (keys[end] >> 32) == (keys[begin] >> 32)) ++end;
+    const float cdf =
+        static_cast<float>((static_cast<double>(begin) + 0.5 * static_cast<double>(end - begin)) / count);
+    for (std::size_t i = begin; i < end; ++i) out[keys[i] & 0xffffffffu] = cdf;
+    if (begin == 0) lowest_cdf = cdf;
+    highest_cdf = cdf;
+    begin = end;
+  }
+  // Non-finite values as operator() maps them: NaN to 0, -inf below the
+  // lowest distinct value, +inf beyond the highest.
+  for (std::size_t k = 0; k < values.size(); ++k) {
+    if (std::isnan(values[k])) out[k] = 0.0f;
+    else if (std::isinf(values[k])) out[k] = values[k] < 0.0f ? lowest_cdf : highest_cdf;
+  }
+  return out;
+}
+
 cv::Mat NormaliseImage(const cv::Mat& intensity, Normalisation normalisation, double lower_percentile,
                        double upper_percentile) {
   if (intensity.empty()) return {};
@@ -127,11 +182,29 @@ cv::Mat NormaliseImage(const cv::Mat& intensity, Normalisation normalisation, do
   return out;
 }
 
+cv::Mat GaussianBlurAnyWidth(const cv::Mat& image, double sigma_px) {
+  cv::Mat out;
+  const int factor = static_cast<int>(std::floor(sigma_px / 5.0));
+  if (sigma_px < kWideBlurSigmaPx || factor < 2 || image.cols < 4 * factor || image.rows < 4 * factor) {
+    cv::GaussianBlur(image, out, cv::Size(0, 0), sigma_px, sigma_px, cv::BORDER_REFLECT);
+    return out;
+  }
+  const double f = factor;
+  const cv::Size small_size(static_cast<int>(std::ceil(image.cols / f)), static_cast<int>(std::ceil(image.rows / f)));
+  cv::Mat small;
+  cv::resize(image, small, small_size, 0.0, 0.0, cv::INTER_AREA);
+  // Variances in full-size pixels^2: the area average ~ f^2 / 12 and the
+  // bilinear interpolation ~ f^2 / 6 leave sigma^2 - f^2 / 4 to the Gaussian.
+  const double small_sigma = std::sqrt(sigma_px * sigma_px - f * f / 4.0) / f;
+  cv::GaussianBlur(small, small, cv::Size(0, 0), small_sigma, small_sigma, cv::BORDER_REFLECT);
+  cv::resize(small, out, image.size(), 0.0, 0.0, cv::INTER_LINEAR);
+  return out;
+}
+
 cv::Mat HighPassImage(const cv::Mat& intensity, double sigma_px) {
   const cv::Mat grey = NormaliseImage(intensity, Normalisation::kNone);
   if (grey.empty() || !(sigma_px > 0.0)) return grey;
-  cv::Mat local_mean;
-  cv::GaussianBlur(grey, local_mean, cv::Size(0, 0), sigma_px, sigma_px, cv::BORDER_REFLECT);
+  const cv::Mat local_mean = GaussianBlurAnyWidth(grey, sigma_px);
   const cv::Mat difference = grey - local_mean;
   double lowest = 0.0, highest = 0.0;
   cv::minMaxLoc(difference, &lowest, &highest);

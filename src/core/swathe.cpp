@@ -93,11 +93,8 @@ SceneSwathe SceneSwathe::Build(const Scene& scene, const CameraInfo& camera, con
     swathe.T_basek_basej_.push_back(scene.scans[s].T_basek_basej);
   }
   swathe.ComposeScanPoses(swathe.T_basek_basej_);
-  const ValueNormaliser normaliser =
-      ValueNormaliser::Fit(reflectance, normalisation.reflectance, normalisation.lower_percentile,
-                           normalisation.upper_percentile);
-  swathe.reflectance01_.resize(reflectance.size());
-  normaliser.Apply(reflectance, swathe.reflectance01_);
+  swathe.reflectance01_ = ValueNormaliser::FitAndApply(reflectance, normalisation.reflectance,
+                                                       normalisation.lower_percentile, normalisation.upper_percentile);
   // Judged after the mapping: e.g. `none` on reflectances beyond 1 clamps them all to 1.
   const auto [min_it, max_it] = std::minmax_element(swathe.reflectance01_.begin(), swathe.reflectance01_.end());
   swathe.reflectance_constant_ = swathe.reflectance01_.empty() || !(*max_it - *min_it > 1e-6f);
@@ -128,10 +125,8 @@ void SceneSwathe::SetImageBlur(double sigma_px) {
   // image by the same sigma: one copy, made once, shared read-only.
   const std::lock_guard<std::mutex> lock(blur_cache_->mutex);
   if (blur_cache_->blurred.empty() || blur_cache_->sigma_px != sigma) {
-    cv::Mat blurred;
     const cv::Mat& whole = image_plain_.empty() ? image_sharp_ : image_plain_;
-    cv::GaussianBlur(whole, blurred, cv::Size(0, 0), sigma, sigma, cv::BORDER_REFLECT);
-    blur_cache_->blurred = blurred;
+    blur_cache_->blurred = GaussianBlurAnyWidth(whole, sigma);
     blur_cache_->sigma_px = sigma;
   }
   image_ = blur_cache_->blurred;
