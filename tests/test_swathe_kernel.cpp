@@ -145,6 +145,46 @@ TEST(SwatheKernel, AddHardCountsCountsVisiblePointsOnly) {
   for (const Eigen::Isometry3d& T : TestPoses()) ExpectSameCounts(t.swathe, T, 32, 32);
 }
 
+// A blurred stage's point stride: every k-th point scored, the scene's count
+// of projected points (which decides whether it is used) unchanged, the stride
+// kept across refreshes, and the sharp stage's mask and cost restored exactly.
+TEST(SwatheKernel, ABlurredStageScoresEveryKthPointAndTheSharpStageAllAgain) {
+  EXPECT_EQ(PointStrideForBlur(25.6, 8.0), 3);
+  EXPECT_EQ(PointStrideForBlur(7.9, 8.0), 1);
+  EXPECT_EQ(PointStrideForBlur(0.0, 8.0), 1);
+  EXPECT_EQ(PointStrideForBlur(25.6, 0.0), 1);  // 0: every point
+  TestSwathe t = MakeSwathe(CameraModelKind::kPinhole, 9);
+  const Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  t.swathe.RefreshVisibility(T, SwatheOptions{});
+  const std::size_t visible = t.swathe.VisibleCount(), projected = t.swathe.CountProjected(T);
+  ASSERT_GT(projected, 1000u);
+  const auto cost_at = [&](const Eigen::Isometry3d& pose) {
+    JointHistogram histogram(HistogramOptions{32, 32, Binning::kBSpline});
+    const std::size_t added = t.swathe.AddBSplineSamples(pose, &histogram);
+    return std::make_pair(added, CostValue(ComputeInformation(histogram), MetricKind::kNid));
+  };
+  const auto [sharp_added, sharp_cost] = cost_at(T);
+  EXPECT_EQ(sharp_added, projected);
+  t.swathe.SetImageBlur(24.0, 3);
+  const std::size_t strided = t.swathe.VisibleCount();
+  EXPECT_GE(strided, visible / 3 - 50);
+  EXPECT_LE(strided, visible / 3 + 50);
+  EXPECT_EQ(t.swathe.CountProjected(T), projected);  // the scene's count is the unstrided one
+  const std::size_t blurred_added = cost_at(T).first;
+  EXPECT_GE(blurred_added, projected / 3 - 50);
+  EXPECT_LE(blurred_added, projected / 3 + 50);
+  t.swathe.RefreshVisibility(T, SwatheOptions{});  // a refresh within the stage keeps its stride
+  EXPECT_EQ(t.swathe.VisibleCount(), strided);
+  t.swathe.SetImageBlur(24.0, 4);  // a new stride starts from the whole mask
+  EXPECT_GE(t.swathe.VisibleCount(), visible / 4 - 50);
+  EXPECT_LE(t.swathe.VisibleCount(), visible / 4 + 50);
+  t.swathe.SetImageBlur(0.0);
+  EXPECT_EQ(t.swathe.VisibleCount(), visible);
+  const auto [again_added, again_cost] = cost_at(T);
+  EXPECT_EQ(again_added, sharp_added);
+  EXPECT_EQ(again_cost, sharp_cost);
+}
+
 TEST(SwatheKernel, AddHardCountsOnANonFiniteImageTakesTheGenericPath) {
   CameraInfo camera;
   camera.name = "cam";

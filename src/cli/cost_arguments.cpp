@@ -178,6 +178,13 @@ void AddVisibilityOptions(CLI::App* command, CostArguments* args) {
                       "and worse on two, with the simplex mixed (docs/findings.md, \"Tried and not kept\")")
       ->check(kPixelsOrPercent)
       ->capture_default_str();
+  command->add_option("--coarse-point-stride", args->blur_px_per_point_stride,
+                      "A blurred stage (--stages) scores every k-th point, k = the blur's sigma in pixels / this "
+                      "(rounded down; 0 = every point). At 8 the push-broom setting's first stage (25.6 px at 1280) "
+                      "scores every third point: the trinocular calibration 48 s -> 36 s at the same errors, but one "
+                      "of 15 starts 30 cm / 10 deg off lost the basin (BENCHMARK.md)")
+      ->check(kNonNegative)
+      ->capture_default_str();
 }
 
 // Which lidar points are kept (range, thinning) and how a scene's points are split.
@@ -246,6 +253,7 @@ void ApplyCostArguments(const CostArguments& args, CalibrationOptions* options) 
   options->cost.swathe.occlusion_cell_px = args.occlusion_cell_px;
   options->cost.swathe.occlusion_relative_margin = args.occlusion_relative_margin;
   options->cost.swathe.occlusion_absolute_margin_m = args.occlusion_absolute_margin_m;
+  options->cost.swathe.blur_px_per_point_stride = args.blur_px_per_point_stride;
   options->cost.swathe.min_range_m = args.min_range_m;
   options->cost.swathe.max_range_m = args.max_range_m;
   options->range_split_m = args.range_split_m;

@@ -47,6 +47,7 @@ struct CostArguments {
   double occlusion_absolute_margin_m = kCoreDefaults.cost.swathe.occlusion_absolute_margin_m;
   // Pixels, or N% of the widest image (RefreshBorderPx).
   std::string refresh_border = NumberText(kCoreDefaults.cost.swathe.refresh_border_px);
+  double blur_px_per_point_stride = kCoreDefaults.cost.swathe.blur_px_per_point_stride;  // 0 = every point
   double min_range_m = kCoreDefaults.cost.swathe.min_range_m;  // lidar points nearer than this (lidar frame) are dropped
   double max_range_m = kCoreDefaults.cost.swathe.max_range_m;  // and farther than this
   double range_split_m = kCoreDefaults.range_split_m;          // 0 = one histogram per scene

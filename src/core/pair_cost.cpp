@@ -49,7 +49,8 @@ PairCost::PairCost(CameraInfo camera, std::string lidar, std::vector<SceneSwathe
 void PairCost::SetImageBlur(double fraction_of_width) {
   tbb::parallel_for(std::size_t{0}, scenes_.size(), [&](std::size_t s) {
     ThrowIfInterrupted();
-    scenes_[s].SetImageBlur(fraction_of_width * static_cast<double>(scenes_[s].Image().cols));
+    const double sigma_px = fraction_of_width * static_cast<double>(scenes_[s].Image().cols);
+    scenes_[s].SetImageBlur(sigma_px, PointStrideForBlur(sigma_px, options_.swathe.blur_px_per_point_stride));
   });
 }
 

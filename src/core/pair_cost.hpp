@@ -82,6 +82,7 @@ class PairCost {
 
   // Blurs every scene's image with a Gaussian of 1-sigma = fraction * image
   // width (pixels); 0 restores the sharp images. Between optimiser runs only.
+  // A blur also thins the scored points (SwatheOptions::blur_px_per_point_stride).
   void SetImageBlur(double fraction_of_width);
   // The histogram's binning from now on (the uncertainty scores the swathes
   // with B-spline binning, whose cost is smooth).

@@ -24,6 +24,8 @@ bool SwatheOptions::IsValid(std::string* why) const {
     return Invalid(why, "occlusion margins must be finite and >= 0");
   if (!(refresh_border_px >= 0.0) || !std::isfinite(refresh_border_px))
     return Invalid(why, "refresh_border_px must be >= 0 (pixels)");
+  if (!(blur_px_per_point_stride >= 0.0) || !std::isfinite(blur_px_per_point_stride))
+    return Invalid(why, "blur_px_per_point_stride must be >= 0 (pixels; 0 = every point)");
   return true;
 }
 
@@ -110,7 +112,30 @@ SceneSwathe SceneSwathe::Build(const Scene& scene, const CameraInfo& camera, con
   return swathe;
 }
 
-void SceneSwathe::SetImageBlur(double sigma_px) {
+int PointStrideForBlur(double sigma_px, double blur_px_per_point_stride) {
+  if (!(blur_px_per_point_stride > 0.0) || !(sigma_px > 0.0)) return 1;
+  return std::clamp(static_cast<int>(sigma_px / blur_px_per_point_stride), 1, 64);
+}
+
+void SceneSwathe::ApplyPointStride() {
+  if (point_stride_ <= 1) {
+    unstrided_visible_.clear();
+    return;
+  }
+  unstrided_visible_ = visible_;
+  const auto stride = static_cast<std::size_t>(point_stride_);
+  for (std::size_t i = 0; i < visible_.size(); ++i) {
+    if (i % stride != 0) visible_[i] = 0;
+  }
+}
+
+void SceneSwathe::SetImageBlur(double sigma_px, int point_stride) {
+  point_stride = std::max(1, point_stride);
+  if (point_stride != point_stride_) {
+    if (!unstrided_visible_.empty()) visible_ = unstrided_visible_;
+    point_stride_ = point_stride;
+    ApplyPointStride();
+  }
   if (image_sharp_.empty()) return;
   const double sigma = sigma_px > 0.0 ? sigma_px : 0.0;
   // The alternating scheme sets the blur of every alternation, mostly the one
@@ -200,8 +225,14 @@ std::size_t SceneSwathe::VisibleCount() const {
 }
 
 std::size_t SceneSwathe::CountProjected(const Eigen::Isometry3d& T_camera_lidar) const {
+  // Before a coarse stage's stride: which scenes have enough points does not change with the stage.
+  const std::vector<std::uint8_t>& mask = unstrided_visible_.empty() ? visible_ : unstrided_visible_;
   std::size_t count = 0;
-  ForEachProjected(T_camera_lidar, true, [&](std::size_t, float, float, float, float) { ++count; });
+  ForEachProjectedBlock(T_camera_lidar, false,
+                        [&](std::size_t begin, int n, const float*, const float*, const float*,
+                            const std::int32_t* accepted) {
+                          for (int k = 0; k < n; ++k) count += (accepted[k] != 0 && mask[begin + k] != 0) ? 1 : 0;
+                        });
   return count;
 }
 
@@ -228,6 +259,12 @@ Eigen::Vector3d SceneSwathe::SumProjectedLidarPoints(const Eigen::Isometry3d& T_
 }
 
 std::size_t SceneSwathe::RefreshVisibility(const Eigen::Isometry3d& T_camera_lidar, const SwatheOptions& options) {
+  const std::size_t projected = RefreshVisibilityMask(T_camera_lidar, options);
+  ApplyPointStride();
+  return projected;
+}
+
+std::size_t SceneSwathe::RefreshVisibilityMask(const Eigen::Isometry3d& T_camera_lidar, const SwatheOptions& options) {
   std::fill(visible_.begin(), visible_.end(), std::uint8_t{1});
   if (image_.empty()) return 0;
   const int cell = options.occlusion_cell_px > 0 ? options.occlusion_cell_px : std::max(4, image_.cols / 80);
