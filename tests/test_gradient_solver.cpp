@@ -219,6 +219,15 @@ TEST(GradientSolver, LbfgsRecoversTheTruthWithFewerEvaluationsThanTheSimplex) {
 // ~1e-11, below the jitter, and the run ended where it started (as joint did
 // 0.23 deg from the truth on world 1). With the cost normalised by the start's
 // gradient the first step is one scale long.
+// A deterministic jitter in [-amplitude / 2, amplitude / 2), constant on cells
+// of 1 / resolution of the scaled offset e: rounding no gradient sees.
+double Jitter(const Vector6d& e, double resolution, double amplitude) {
+  std::uint64_t hash = 1469598103934665603ull;
+  for (int k = 0; k < 6; ++k)
+    hash = (hash ^ static_cast<std::uint64_t>(std::llround(e[k] * resolution))) * 1099511628211ull;
+  return amplitude * (static_cast<double>(hash >> 11) / 9007199254740992.0 - 0.5);
+}
+
 TEST(GradientSolver, LbfgsCrossesAFlatBowlFromItsFirstStep) {
   const Eigen::Isometry3d T_min = TransformFromTuple((Vector6d() << 0.4, -1.1, 2.0, 0.1, -0.2, 1.5).finished());
   GradientSolverOptions options;
@@ -231,10 +240,7 @@ TEST(GradientSolver, LbfgsCrossesAFlatBowlFromItsFirstStep) {
   // samples has (measured on NID: ~2e-9 between points 1e-4 deg apart).
   const auto bowl = [&](const Eigen::Isometry3d& T) {
     const Vector6d e = LogSE3(T * T_min.inverse()).cwiseQuotient(width);
-    std::uint64_t hash = 1469598103934665603ull;
-    for (int k = 0; k < 6; ++k) hash = (hash ^ static_cast<std::uint64_t>(std::llround(e[k] * 1e9))) * 1099511628211ull;
-    const double jitter = 2e-9 * (static_cast<double>(hash >> 11) / 9007199254740992.0 - 0.5);
-    return 0.97 + 1e-6 * e.squaredNorm() + jitter;
+    return 0.97 + 1e-6 * e.squaredNorm() + Jitter(e, 1e9, 2e-9);
   };
   const CostWithGradient cost = [&](const Eigen::Isometry3d& T, Vector6d* gradient) {
     if (gradient != nullptr) {
@@ -274,9 +280,7 @@ TEST(GradientSolver, ShortLineSearchesSpendFewerEvaluationsOnARoughCost) {
   };
   const auto rough = [&](const Eigen::Isometry3d& T) {
     const Vector6d e = LogSE3(T * T_min.inverse()).cwiseQuotient(width);
-    std::uint64_t hash = 1469598103934665603ull;
-    for (int k = 0; k < 6; ++k) hash = (hash ^ static_cast<std::uint64_t>(std::llround(e[k] * 1e6))) * 1099511628211ull;
-    return 0.95 + smooth(T) + 1e-8 * (static_cast<double>(hash >> 11) / 9007199254740992.0 - 0.5);
+    return 0.95 + smooth(T) + Jitter(e, 1e6, 1e-8);
   };
   const CostWithGradient cost = [&](const Eigen::Isometry3d& T, Vector6d* gradient) {
     if (gradient != nullptr) {

@@ -505,7 +505,7 @@ TEST(Normalisation, HighPassKeepsTheTextureAndDropsTheRegionsBrightness) {
 
 // Wide blurs through an image area-averaged down: within a fraction of a
 // percent of OpenCV's own Gaussian, within the input's bounds, and OpenCV's
-// own below kWideBlurSigmaPx.
+// own below 10 px.
 TEST(Normalisation, GaussianBlurAnyWidthMatchesTheGaussian) {
   // Street-like: regions of different brightness (blurred noise at two
   // scales) and fine texture, values in [0, 1], an odd size.

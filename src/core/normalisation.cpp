@@ -132,10 +132,11 @@ std::vector<float> ValueNormaliser::FitAndApply(std::span<const float> values, N
   keys.reserve(values.size());
   for (std::size_t k = 0; k < values.size(); ++k) {
     // -0 and +0 are one value (as in Fit's sort and upper_bound).
-    if (std::isfinite(values[k])) keys.push_back(OrderedKey(values[k] == 0.0f ? 0.0f : values[k], static_cast<std::uint32_t>(k)));
+    if (std::isfinite(values[k]))
+      keys.push_back(OrderedKey(values[k] == 0.0f ? 0.0f : values[k], static_cast<std::uint32_t>(k)));
   }
-  if (keys.empty()) {  // no finite value: as Fit's empty normaliser
-    for (std::size_t k = 0; k < values.size(); ++k) out[k] = std::isnan(values[k]) ? 0.0f : 0.5f;
+  if (keys.empty()) {  // no finite value: Fit's empty normaliser
+    Fit(values, normalisation).Apply(values, out);
     return out;
   }
   std::sort(keys.begin(), keys.end());
@@ -185,7 +186,7 @@ cv::Mat NormaliseImage(const cv::Mat& intensity, Normalisation normalisation, do
 cv::Mat GaussianBlurAnyWidth(const cv::Mat& image, double sigma_px) {
   cv::Mat out;
   const int factor = static_cast<int>(std::floor(sigma_px / 5.0));
-  if (sigma_px < kWideBlurSigmaPx || factor < 2 || image.cols < 4 * factor || image.rows < 4 * factor) {
+  if (factor < 2 || image.cols < 4 * factor || image.rows < 4 * factor) {
     cv::GaussianBlur(image, out, cv::Size(0, 0), sigma_px, sigma_px, cv::BORDER_REFLECT);
     return out;
   }

@@ -98,16 +98,15 @@ cv::Mat NormaliseImage(const cv::Mat& intensity, Normalisation normalisation, do
                        double upper_percentile = 99.0);
 
 // A Gaussian blur of sigma_px pixels (mirrored at the border) that costs the
-// same at any width: below kWideBlurSigmaPx it is cv::GaussianBlur itself;
-// wider, the image is area-averaged down by a factor f = sigma / 5 (rounded
-// down), blurred there so that the whole chain (box, Gaussian, bilinear
+// same at any width: the image is area-averaged down by a factor f = sigma / 5
+// (rounded down; below 2, i.e. sigma < 10 px, it is cv::GaussianBlur itself),
+// blurred there so that the whole chain (box, Gaussian, bilinear
 // interpolation back up) has the variance sigma^2, and interpolated back to
 // its size. Each step is a convex combination, so the result stays within the
 // input's bounds. On a 1280x960 float image at sigma 25.6 px (the push-broom
 // setting's first stage) cv::GaussianBlur took 85 ms on one core; this takes a
 // few ms and differs from it by under 0.5 % of the image's range
 // (0.1 % at 25.6 px, Normalisation.GaussianBlurAnyWidthMatchesTheGaussian).
-inline constexpr double kWideBlurSigmaPx = 8.0;
 cv::Mat GaussianBlurAnyWidth(const cv::Mat& image, double sigma_px);
 
 // The image (CV_32FC1 in [0, 1], or CV_8UC1 read as value / 255) less its
