@@ -383,7 +383,7 @@ TEST_F(LowerSolverOnSimulation, LbfgsLowerLevelRecoversAPerturbedTransform) {
   // At least 90% of the simplex's decrease of the objective, with at least 3
   // times fewer evaluations.
   const double start_objective = simplex.summary.initial_value;
-  EXPECT_EQ(lbfgs.summary.initial_value, start_objective);
+  EXPECT_DOUBLE_EQ(lbfgs.summary.initial_value, start_objective);  // through L-BFGS' value scale and back
   EXPECT_GT(start_objective - lbfgs.objective, 0.9 * (start_objective - simplex.objective));
   EXPECT_LT(3 * lbfgs.summary.evaluations, simplex.summary.evaluations);
   // objective = f + penalty at the answer; cost = f alone.

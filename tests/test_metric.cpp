@@ -284,6 +284,57 @@ double ShiftedNid(const std::vector<float>& x, const std::vector<float>& y, floa
   return Measure(x, shifted, Options(32, 32, binning)).nid;
 }
 
+// The kernel's lane-interleaved, margin-padded fill against AddBSpline per sample: every bin equal within
+// rounding, including the edge bins that collect the clamped windows (values at and beyond 0 and 1, NaN), for
+// square, oblong and tiny tables, with batches of odd sizes; Reset empties it for other bin counts.
+TEST(Metric, BSplineAccumulatorGivesAddBSplinesWeights) {
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<float> inside(0.0f, 1.0f), wide(-0.2f, 1.2f);
+  BSplineAccumulator accumulator;
+  for (const auto& [nx, ny] : {std::pair{32, 32}, std::pair{5, 48}, std::pair{2, 3}}) {
+    const HistogramOptions options = Options(nx, ny, Binning::kBSpline);
+    std::vector<float> x01, y01;
+    float x = 0.5f, y = 0.5f;
+    for (int k = 0; k < 20000; ++k) {
+      // Runs of nearby values, as in scan order, and jumps anywhere, as in random order.
+      if (k % 97 == 0) x = wide(rng), y = wide(rng);
+      x = std::clamp(x + 0.01f * (inside(rng) - 0.5f), -0.2f, 1.2f);
+      y = std::clamp(y + 0.01f * (inside(rng) - 0.5f), -0.2f, 1.2f);
+      x01.push_back(x);
+      y01.push_back(y);
+    }
+    for (const float edge : {0.0f, 1.0f, -5.0f, 7.0f, std::numeric_limits<float>::quiet_NaN()}) {
+      x01.push_back(edge);
+      y01.push_back(inside(rng));
+      x01.push_back(inside(rng));
+      y01.push_back(edge);
+    }
+    JointHistogram expected(options), filled(options);
+    for (std::size_t k = 0; k < x01.size(); ++k) expected.AddBSpline(x01[k], y01[k]);
+    accumulator.Reset(nx, ny);
+    for (std::size_t begin = 0, batch = 1; begin < x01.size(); begin += batch, batch = batch * 3 % 301 + 1) {
+      const std::size_t count = std::min(batch, x01.size() - begin);
+      accumulator.Add(x01.data() + begin, y01.data() + begin, count);
+    }
+    EXPECT_EQ(accumulator.Samples(), x01.size());
+    accumulator.AddTo(&filled);
+    EXPECT_EQ(filled.Samples(), expected.Samples());
+    const double tolerance = 1e-12 * static_cast<double>(x01.size());
+    double worst = 0.0;
+    for (std::size_t i = 0; i < expected.Weights().size(); ++i)
+      worst = std::max(worst, std::abs(filled.Weights()[i] - expected.Weights()[i]));
+    EXPECT_LT(worst, tolerance) << nx << " x " << ny;
+    EXPECT_GT(filled.Weight(0, 0) + filled.Weight(nx - 1, ny - 1), 0.0);  // the edges were reached
+    EXPECT_NEAR(filled.TotalWeight(), static_cast<double>(x01.size()), tolerance);
+    EXPECT_NEAR(ComputeInformation(filled).nid, ComputeInformation(expected).nid, 1e-12);
+  }
+  accumulator.Reset(4, 4);  // empty again, at the new size
+  JointHistogram empty(Options(4, 4, Binning::kBSpline));
+  accumulator.AddTo(&empty);
+  EXPECT_EQ(empty.Samples(), 0u);
+  EXPECT_EQ(empty.TotalWeight(), 0.0);
+}
+
 TEST(Metric, BSplineNidIsContinuousHardNidJumps) {
   // Few samples so single bin crossings are visible. Shift every y through
   // one bin width (1/32) in steps of 1e-4 and record the largest step change.

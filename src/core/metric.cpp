@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <bit>
 #include <cstdint>
+#include <cstring>
 #include <numeric>
 
 #include "core/validation.hpp"
@@ -166,15 +167,15 @@ double CostGradient::SampleDerivative(float x01, float y01) const {
   ComputeBSplineWindow(y01, ny_, &wy, /*with_derivatives=*/true);
   std::array<int, 4> columns;
   for (int k = 0; k < 4; ++k) columns[k] = JointHistogram::ClampBin(wy.first + k, ny_);
-  double derivative = 0.0;
+  // sum_b dwy_b (sum_a wx_a dcost/dh_ab), in this order (SampleDerivatives' too).
+  double column[4] = {0.0, 0.0, 0.0, 0.0};
   for (int a = 0; a < 4; ++a) {
     const double* row =
         dcost_dweight_.data() + static_cast<std::size_t>(JointHistogram::ClampBin(wx.first + a, nx_)) * ny_;
-    double row_sum = 0.0;
-    for (int b = 0; b < 4; ++b) row_sum += row[columns[b]] * wy.derivatives[b];
-    derivative += wx.weights[a] * row_sum;
+    for (int b = 0; b < 4; ++b) column[b] += wx.weights[a] * row[columns[b]];
   }
-  return derivative;
+  return ((column[0] * wy.derivatives[0] + column[1] * wy.derivatives[1]) + column[2] * wy.derivatives[2]) +
+         column[3] * wy.derivatives[3];
 }
 
 namespace {
@@ -212,11 +213,36 @@ template <bool kDerivatives>
       out->value[3][k] = 0.5 * t2 * scale;
     } else {
       const double t3 = t2 * t;
-      out->value[0][k] = s * s * s / 6.0;
-      out->value[1][k] = (3.0 * t3 - 6.0 * t2 + 4.0) / 6.0;
-      out->value[2][k] = (-3.0 * t3 + 3.0 * t2 + 3.0 * t + 1.0) / 6.0;
-      out->value[3][k] = t3 / 6.0;
+      constexpr double kSixth = 1.0 / 6.0;  // as ComputeBSplineWindow
+      out->value[0][k] = s * s * s * kSixth;
+      out->value[1][k] = (3.0 * t3 - 6.0 * t2 + 4.0) * kSixth;
+      out->value[2][k] = (-3.0 * t3 + 3.0 * t2 + 3.0 * t + 1.0) * kSixth;
+      out->value[3][k] = t3 * kSixth;
     }
+  }
+}
+
+// Four doubles in one vector (GCC / Clang vector extension: element-wise
+// arithmetic, the same roundings as scalar code).
+typedef double Double4 __attribute__((vector_size(32)));
+
+// The 4 x 4 window reads of SampleDerivativeChunk. Not vectorised across
+// samples (which turns each read into 16 scalar loads), but within one: the
+// four columns are summed together, so a window row is one vector load.
+__attribute__((target_clones("avx2", "default"), optimize("no-tree-loop-vectorize"))) void ReadDerivativeWindows(
+    const double* __restrict padded, int padded_ny, int pad, const WindowChunk& wx, const WindowChunk& wy, int count,
+    double* __restrict derivatives) {
+  for (int k = 0; k < count; ++k) {
+    // SampleDerivative's sums in its order; the padding holds the clamped bins' values.
+    const double* block = padded + static_cast<std::ptrdiff_t>(wx.first[k] + pad) * padded_ny + (wy.first[k] + pad);
+    Double4 column = {0.0, 0.0, 0.0, 0.0};
+    for (int a = 0; a < 4; ++a) {
+      Double4 row;
+      std::memcpy(&row, block + static_cast<std::ptrdiff_t>(a) * padded_ny, sizeof row);  // unaligned load
+      column += wx.value[a][k] * row;
+    }
+    derivatives[k] = ((column[0] * wy.value[0][k] + column[1] * wy.value[1][k]) + column[2] * wy.value[2][k]) +
+                     column[3] * wy.value[3][k];
   }
 }
 
@@ -228,61 +254,72 @@ __attribute__((target_clones("avx2", "default"))) void SampleDerivativeChunk(
   WindowChunk wx, wy;
   ComputeWindowChunk<false>(x01, count, nx, &wx);
   ComputeWindowChunk<true>(y01, count, ny, &wy);
-  for (int k = 0; k < count; ++k) {
-    // SampleDerivative's sums in its order; the padding holds the clamped bins' values.
-    const double* block = padded + static_cast<std::ptrdiff_t>(wx.first[k] + pad) * padded_ny + (wy.first[k] + pad);
-    double derivative = 0.0;
-    for (int a = 0; a < 4; ++a) {
-      const double* row = block + static_cast<std::ptrdiff_t>(a) * padded_ny;
-      double row_sum = 0.0;
-      for (int b = 0; b < 4; ++b) row_sum += row[b] * wy.value[b][k];
-      derivative += wx.value[a][k] * row_sum;
-    }
-    derivatives[k] = derivative;
-  }
+  ReadDerivativeWindows(padded, padded_ny, pad, wx, wy, count, derivatives);
 }
 
-// JointHistogram::AddBSpline's scatter over a chunk whose windows are computed
-// first (vectorised). Baseline x86-64 and AVX2, no FMA: the same weights.
-__attribute__((target_clones("avx2", "default"))) void AddBSplineChunk(double* __restrict weights, int nx, int ny,
-                                                                       const float* __restrict x01,
-                                                                       const float* __restrict y01, int count) {
+// BSplineAccumulator::Add over one chunk: sample k's window goes into lane
+// k % kLanes, at (first + kPad) in both variables (no clamping). Baseline
+// x86-64 and AVX2, no FMA: the same weights on every machine.
+__attribute__((target_clones("avx2", "default"))) void AccumulateBSplineChunk(
+    double* __restrict lanes, std::size_t lane_size, int row_stride, int nx, int ny,
+    const float* __restrict x01, const float* __restrict y01, int count) {
   WindowChunk wx, wy;
   ComputeWindowChunk<false>(x01, count, nx, &wx);
   ComputeWindowChunk<false>(y01, count, ny, &wy);
   for (int k = 0; k < count; ++k) {
-    const int first_y = wy.first[k];
+    constexpr int kLanes = BSplineAccumulator::kLanes, kPad = BSplineAccumulator::kPad;
+    double* cell = lanes + static_cast<std::size_t>(k % kLanes) * lane_size +
+                   static_cast<std::ptrdiff_t>(wx.first[k] + kPad) * row_stride + (wy.first[k] + kPad);
     const double wy0 = wy.value[0][k], wy1 = wy.value[1][k], wy2 = wy.value[2][k], wy3 = wy.value[3][k];
-    if (first_y >= 0 && first_y + 3 < ny) {
-      for (int a = 0; a < 4; ++a) {
-        double* cell = weights + static_cast<std::size_t>(JointHistogram::ClampBin(wx.first[k] + a, nx)) * ny + first_y;
-        const double weight_x = wx.value[a][k];
-        cell[0] += weight_x * wy0;
-        cell[1] += weight_x * wy1;
-        cell[2] += weight_x * wy2;
-        cell[3] += weight_x * wy3;
-      }
-      continue;
-    }
-    const double weight_y[4] = {wy0, wy1, wy2, wy3};
-    int columns[4];
-    for (int b = 0; b < 4; ++b) columns[b] = JointHistogram::ClampBin(first_y + b, ny);
     for (int a = 0; a < 4; ++a) {
-      double* row = weights + static_cast<std::size_t>(JointHistogram::ClampBin(wx.first[k] + a, nx)) * ny;
+      double* row = cell + static_cast<std::ptrdiff_t>(a) * row_stride;
       const double weight_x = wx.value[a][k];
-      for (int b = 0; b < 4; ++b) row[columns[b]] += weight_x * weight_y[b];
+      row[0] += weight_x * wy0;
+      row[1] += weight_x * wy1;
+      row[2] += weight_x * wy2;
+      row[3] += weight_x * wy3;
     }
   }
 }
 
 }  // namespace
 
-void JointHistogram::AddBSplineBatch(const float* x01, const float* y01, std::size_t count) {
+void BSplineAccumulator::Reset(int reflectance_bins, int intensity_bins) {
+  nx_ = std::clamp(reflectance_bins, 2, HistogramOptions::kMaxBins);
+  ny_ = std::clamp(intensity_bins, 2, HistogramOptions::kMaxBins);
+  row_stride_ = ny_ + 2 * kPad;
+  lane_size_ = static_cast<std::size_t>(nx_ + 2 * kPad) * static_cast<std::size_t>(row_stride_);
+  lanes_.assign(lane_size_ * kLanes, 0.0);
+  samples_ = 0;
+}
+
+void BSplineAccumulator::Add(const float* x01, const float* y01, std::size_t count) {
+  if (lanes_.empty()) return;
+  // Chunks of a multiple of kLanes samples: sample k's lane is its index in the whole batch modulo kLanes.
+  static_assert(kWindowChunk % kLanes == 0);
   for (std::size_t begin = 0; begin < count; begin += kWindowChunk) {
     const int chunk = static_cast<int>(std::min<std::size_t>(kWindowChunk, count - begin));
-    AddBSplineChunk(weights_.data(), nx_, ny_, x01 + begin, y01 + begin, chunk);
+    AccumulateBSplineChunk(lanes_.data(), lane_size_, row_stride_, nx_, ny_, x01 + begin, y01 + begin, chunk);
   }
   samples_ += count;
+}
+
+void BSplineAccumulator::AddTo(JointHistogram* histogram) const {
+  if (lanes_.empty() || histogram->ReflectanceBins() != nx_ || histogram->IntensityBins() != ny_) return;
+  thread_local std::vector<double> folded;
+  folded.assign(static_cast<std::size_t>(nx_) * static_cast<std::size_t>(ny_), 0.0);
+  const int padded_rows = nx_ + 2 * kPad;
+  for (int lane = 0; lane < kLanes; ++lane) {
+    const double* table = lanes_.data() + static_cast<std::size_t>(lane) * lane_size_;
+    for (int i = 0; i < padded_rows; ++i) {
+      double* row = folded.data() + static_cast<std::size_t>(JointHistogram::ClampBin(i - kPad, nx_)) * ny_;
+      const double* padded_row = table + static_cast<std::size_t>(i) * row_stride_;
+      for (int j = 0; j < kPad; ++j) row[0] += padded_row[j];
+      for (int j = 0; j < ny_; ++j) row[j] += padded_row[j + kPad];
+      for (int j = ny_ + kPad; j < row_stride_; ++j) row[ny_ - 1] += padded_row[j];
+    }
+  }
+  histogram->AddWeights(folded.data(), samples_);
 }
 
 void CostGradient::SampleDerivatives(const float* x01, const float* y01, std::size_t count,

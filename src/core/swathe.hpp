@@ -204,10 +204,10 @@ class SceneSwathe {
                              const CostGradient& dcost) const;
 
   // Adds the visible points that project under T_camera_lidar to the histogram
-  // with B-spline binning: exactly histogram->AddBSpline(x01, Sample(u, v)) for
-  // each point of ForEachProjected, in its order (the same weights, bit for bit),
-  // with the windows computed per block in vectorised loops. Returns the number
-  // of points added.
+  // with B-spline binning: histogram->AddBSpline(x01, Sample(u, v)) for each
+  // point of ForEachProjected (the same samples; the weights equal within
+  // rounding, summed in BSplineAccumulator's order), with the windows computed
+  // per block in vectorised loops. Returns the number of points added.
   // With record, also records what SampleGradientSum needs of each sample
   // (GradientSamples), so that the gradient pass (after CostGradient::Compute on
   // the histogram) neither projects nor samples the image again.

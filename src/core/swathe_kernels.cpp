@@ -451,12 +451,14 @@ std::size_t SceneSwathe::AddBSplineSamples(const Eigen::Isometry3d& T_camera_lid
   const auto stride = static_cast<std::ptrdiff_t>(image_.step1());
   GradientBlock block;
   std::size_t samples = 0;
+  thread_local BSplineAccumulator accumulator;
+  accumulator.Reset(histogram->ReflectanceBins(), histogram->IntensityBins());
   ForEachProjectedBlock(T_camera_lidar, true, [&](std::size_t begin, int count, const float* u, const float* v,
                                                   const float*, const std::int32_t* accepted) {
     const float* x01 = reflectance01_.data() + begin;
     if (record == nullptr) {
       const int n = GatherSampleBlock(image, stride, u, v, accepted, x01, count, &block, BlockOutput(&block));
-      histogram->AddBSplineBatch(block.x01, block.y01, static_cast<std::size_t>(n));
+      accumulator.Add(block.x01, block.y01, static_cast<std::size_t>(n));
       samples += static_cast<std::size_t>(n);
       return;
     }
@@ -465,11 +467,12 @@ std::size_t SceneSwathe::AddBSplineSamples(const Eigen::Isometry3d& T_camera_lid
                               record->dy_du.data() + samples, record->dy_dv.data() + samples,
                               record->index.data() + samples};
     const int n = GatherGradientBlock(image, stride, u, v, accepted, x01, count, &block, out);
-    histogram->AddBSplineBatch(out.x01, out.y01, static_cast<std::size_t>(n));
+    accumulator.Add(out.x01, out.y01, static_cast<std::size_t>(n));
     samples += static_cast<std::size_t>(n);
     record->count = samples;
     record->block_samples.push_back(static_cast<std::uint16_t>(n));
   });
+  accumulator.AddTo(histogram);
   return samples;
 }
 
