@@ -12,6 +12,7 @@
 #include <opencv2/core.hpp>
 #include <tbb/global_control.h>
 
+#include "core/calibrate.hpp"
 #include "core/geometry.hpp"
 #include "core/gradient_solver.hpp"
 #include "core/nelder_mead.hpp"
@@ -312,6 +313,63 @@ TEST(GradientSolver, ShortLineSearchesSpendFewerEvaluationsOnARoughCost) {
 // --run-radius-*: a run whose minimum lies 1 m / 20 deg away stops at the wall
 // around its start (the wall's pull balances the bowl's within a millimetre);
 // without a radius the same run reaches the minimum.
+// A coarse-to-fine schedule ends its middle stages at the coarse function tolerance, its first and last at the
+// run's own. The valley's floor falls slowly (one direction 1000 times flatter) and each stage's minimum is
+// elsewhere (as a blur moves it): a loose coarse tolerance cuts the middle stage's tail only, and the last stage
+// still ends at its minimum.
+TEST(GradientSolver, MiddleStagesStopAtTheCoarseTolerance) {
+  const Eigen::Isometry3d T_min = TransformFromTuple((Vector6d() << 0.2, -0.4, 1.0, 0.1, 0.05, -0.3).finished());
+  GradientSolverOptions options;
+  Vector6d width;
+  width << Eigen::Vector3d::Constant(options.initial_step_translation_m),
+      Eigen::Vector3d::Constant(options.initial_step_rotation_rad);
+  Vector6d curvature;
+  curvature << 1e-4, 1e-4, 1e-4, 1e-4, 1e-4, 1e-7;
+  double shift = 0.0;  // the current stage's minimum, in parameter scales along every axis
+  const auto valley = [&](const Eigen::Isometry3d& T) {
+    const Vector6d e = LogSE3(T * T_min.inverse()).cwiseQuotient(width) - Vector6d::Constant(shift);
+    return 0.9 + e.cwiseAbs2().dot(curvature);
+  };
+  const CostWithGradient cost = [&](const Eigen::Isometry3d& T, Vector6d* gradient) {
+    if (gradient != nullptr) {
+      *gradient = CentralDifferenceGradient(valley, T, options.transform_update, options.pivot_source,
+                                            Vector6d::Constant(1e-6));
+    }
+    return valley(T);
+  };
+  const auto prepare = [&](const OptimisationStage& stage, const Eigen::Isometry3d&) {
+    shift = 10.0 * stage.blur_fraction;
+  };
+  const Eigen::Isometry3d start = ExpSE3(Vector6d::Constant(3.0).cwiseProduct(width)) * T_min;
+  const std::vector<OptimisationStage> three = {{1.0, 0.2, 0}, {1.0, 0.1, 0}, {1.0, 0.0, 0}};
+  const auto solve = [&](double coarse_tolerance, const std::vector<OptimisationStage>& stages,
+                         Eigen::Isometry3d* T) {
+    options.coarse_function_tolerance = coarse_tolerance;
+    *T = start;
+    return MinimiseCoarseToFineWithGradient(cost, prepare, options, stages, 1.0, T);
+  };
+  Eigen::Isometry3d loose_end, tight_end;
+  const std::vector<GradientSolverSummary> loose = solve(1e-6, three, &loose_end);
+  const std::vector<GradientSolverSummary> tight = solve(0.0, three, &tight_end);  // every stage at 1e-10
+  ASSERT_EQ(loose.size(), 3u);
+  ASSERT_EQ(tight.size(), 3u);
+  std::printf("evaluations per stage at 1e-6: %d %d %d, at 1e-10: %d %d %d; ends %.3g and %.3g above the minimum\n",
+              loose[0].evaluations, loose[1].evaluations, loose[2].evaluations, tight[0].evaluations,
+              tight[1].evaluations, tight[2].evaluations, valley(loose_end) - 0.9, valley(tight_end) - 0.9);
+  EXPECT_EQ(loose[0].evaluations, tight[0].evaluations);  // the first stage runs to the run's own tolerance
+  EXPECT_EQ(loose[0].final_value, tight[0].final_value);
+  EXPECT_LT(loose[1].evaluations, tight[1].evaluations);
+  EXPECT_GT(loose[1].final_value, tight[1].final_value);
+  // The last stage at the run's own tolerance: both end at its minimum.
+  EXPECT_LT(valley(loose_end) - 0.9, 1e-9);
+  EXPECT_LT(valley(tight_end) - 0.9, 1e-9);
+  // With two stages there is no middle one.
+  Eigen::Isometry3d two_loose, two_tight;
+  const std::vector<OptimisationStage> two = {three[0], three[2]};
+  EXPECT_EQ(solve(1e-6, two, &two_loose).back().evaluations, solve(0.0, two, &two_tight).back().evaluations);
+  EXPECT_TRUE(two_loose.isApprox(two_tight, 0.0));
+}
+
 TEST(GradientSolver, RunRadiusKeepsARunNearItsStart) {
   const Eigen::Isometry3d start = TransformFromTuple((Vector6d() << 0.1, 0.2, -0.3, 0.05, 0.1, -0.2).finished());
   Vector6d away;

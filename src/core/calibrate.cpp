@@ -6,6 +6,7 @@
 #include <memory>
 #include <set>
 #include <sstream>
+#include <type_traits>
 
 #include <fmt/format.h>
 #include <tbb/parallel_for.h>
@@ -101,7 +102,10 @@ void RecordCommonSettings(const CalibrationOptions& options, CalibrationResult* 
                                std::to_string(options.gradient.max_iterations) +
                                " iterations a run, at most " + std::to_string(options.gradient.line_search_max_steps) +
                                " trial steps a line search, function tolerance " +
-                               NumberText(options.gradient.function_tolerance) +
+                               NumberText(options.gradient.function_tolerance) + " (stages between the first and the last " +
+                               NumberText(std::max(options.gradient.function_tolerance,
+                                                   options.gradient.coarse_function_tolerance)) +
+                               ")" +
                                "; one cost + gradient evaluation costs ~" + NumberText(kGradientEvaluationCost) +
                                " plain evaluations)";
     const GradientSolverOptions& g = options.gradient;
@@ -291,12 +295,19 @@ std::vector<Summary> CoarseToFine(
     const std::function<Summary(const SolverOptions&, Eigen::Isometry3d*)>& run_once,
     const std::function<bool(const Summary&)>& run_ended) {
   std::vector<Summary> runs;
-  for (const OptimisationStage& stage : stages) {
+  for (std::size_t s = 0; s < stages.size(); ++s) {
+    const OptimisationStage& stage = stages[s];
     if (stop_requested && stop_requested()) break;
     if (prepare) prepare(stage, *transform);
     SolverOptions stage_options = options;
     stage_options.initial_step_translation_m *= stage.step_scale;
     stage_options.initial_step_rotation_rad *= stage.step_scale;
+    if constexpr (std::is_same_v<SolverOptions, GradientSolverOptions>) {
+      if (s > 0 && s + 1 < stages.size()) {
+        stage_options.function_tolerance =
+            std::max(stage_options.function_tolerance, stage_options.coarse_function_tolerance);
+      }
+    }
     for (int run = 0; run <= stage.restarts; ++run) {
       runs.push_back(run_once(stage_options, transform));
       const Summary& last = runs.back();

@@ -29,7 +29,8 @@ bool GradientSolverOptions::IsValid(std::string* why) const {
   if (max_iterations < 1) return Invalid(why, "max_iterations must be at least 1");
   if (lbfgs_rank < 1) return Invalid(why, "lbfgs_rank must be at least 1");
   if (line_search_max_steps < 1) return Invalid(why, "line_search_max_steps must be at least 1");
-  if (!(function_tolerance >= 0.0) || !(gradient_tolerance >= 0.0) || !(parameter_tolerance >= 0.0))
+  if (!(function_tolerance >= 0.0) || !(coarse_function_tolerance >= 0.0) || !(gradient_tolerance >= 0.0) ||
+      !(parameter_tolerance >= 0.0))
     return Invalid(why, "tolerances must be >= 0");
   if (!(initial_step_translation_m > 0.0) || !(initial_step_rotation_rad > 0.0))
     return Invalid(why, "initial steps must be > 0 (metres, radians)");

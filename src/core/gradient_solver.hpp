@@ -47,6 +47,13 @@ struct GradientSolverOptions {
   // run could end on one short step while the cost still fell toward the
   // minimum (0.285 instead of 0.159 deg on one start, the simulated RobotCar drive).
   double function_tolerance = 1e-10;
+  // The coarse-to-fine schedule's stages between its first and its last use
+  // this instead (when larger): starting near the answer, they need only bring
+  // it into the last stage's reach, and their tails crept along the flat
+  // valley. Not the first stage: from far starts its slow descent is what
+  // keeps the basin wide (cut short, a start 30 cm / 10 deg off ran away;
+  // BENCHMARK.md, "End-to-end time").
+  double coarse_function_tolerance = 1e-8;
   double gradient_tolerance = 1e-10;
   double parameter_tolerance = 1e-8;
   // Typical step per axis: metres (translation part), radians (rotation part).
