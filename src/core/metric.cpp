@@ -229,9 +229,19 @@ typedef double Double4 __attribute__((vector_size(32)));
 // The 4 x 4 window reads of SampleDerivativeChunk. Not vectorised across
 // samples (which turns each read into 16 scalar loads), but within one: the
 // four columns are summed together, so a window row is one vector load.
-__attribute__((target_clones("avx2", "default"), optimize("no-tree-loop-vectorize"))) void ReadDerivativeWindows(
-    const double* __restrict padded, int padded_ny, int pad, const WindowChunk& wx, const WindowChunk& wy, int count,
-    double* __restrict derivatives) {
+// (GCC: no loop vectorisation in this function; Clang: the pragma below.)
+#if defined(__clang__)
+#define SCENECAL_WINDOW_READ_ATTRIBUTES __attribute__((target_clones("avx2", "default")))
+#else
+#define SCENECAL_WINDOW_READ_ATTRIBUTES \
+  __attribute__((target_clones("avx2", "default"), optimize("no-tree-loop-vectorize")))
+#endif
+SCENECAL_WINDOW_READ_ATTRIBUTES void ReadDerivativeWindows(const double* __restrict padded, int padded_ny, int pad,
+                                                           const WindowChunk& wx, const WindowChunk& wy, int count,
+                                                           double* __restrict derivatives) {
+#if defined(__clang__)
+#pragma clang loop vectorize(disable)
+#endif
   for (int k = 0; k < count; ++k) {
     // SampleDerivative's sums in its order; the padding holds the clamped bins' values.
     const double* block = padded + static_cast<std::ptrdiff_t>(wx.first[k] + pad) * padded_ny + (wy.first[k] + pad);
