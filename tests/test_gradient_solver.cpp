@@ -213,13 +213,6 @@ TEST(GradientSolver, LbfgsRecoversTheTruthWithFewerEvaluationsThanTheSimplex) {
   EXPECT_LT(lbfgs_summary.evaluations, simplex_summary.evaluations);
 }
 
-// A bowl as flat as NID near its minimum, with a cost's rounding jitter: 0.97 +
-// 1e-6 x |e / width|^2 (e = Log(T * T_min^-1), width one parameter scale per
-// axis), started two widths away along every axis. Ceres' first step is the
-// gradient itself when its max norm is below 1: ~4e-6 scaled units, gaining
-// ~1e-11, below the jitter, and the run ended where it started (as joint did
-// 0.23 deg from the truth on world 1). With the cost normalised by the start's
-// gradient the first step is one scale long.
 // A deterministic jitter in [-amplitude / 2, amplitude / 2), constant on cells
 // of 1 / resolution of the scaled offset e: rounding no gradient sees.
 double Jitter(const Vector6d& e, double resolution, double amplitude) {
@@ -229,14 +222,27 @@ double Jitter(const Vector6d& e, double resolution, double amplitude) {
   return amplitude * (static_cast<double>(hash >> 11) / 9007199254740992.0 - 0.5);
 }
 
+// One parameter scale per axis of the solver's update: metres (translation), radians (rotation).
+Vector6d ParameterScales(const GradientSolverOptions& options) {
+  Vector6d scales;
+  scales << Eigen::Vector3d::Constant(options.initial_step_translation_m),
+      Eigen::Vector3d::Constant(options.initial_step_rotation_rad);
+  return scales;
+}
+
+// A bowl as flat as NID near its minimum, with a cost's rounding jitter: 0.97 +
+// 1e-6 x |e / width|^2 (e = Log(T * T_min^-1), width one parameter scale per
+// axis), started two widths away along every axis. Ceres' first step is the
+// gradient itself when its max norm is below 1: ~4e-6 scaled units, gaining
+// ~1e-11, below the jitter, and the run ended where it started (as joint did
+// 0.23 deg from the truth on world 1). With the cost normalised by the start's
+// gradient the first step is one scale long.
 TEST(GradientSolver, LbfgsCrossesAFlatBowlFromItsFirstStep) {
   const Eigen::Isometry3d T_min = TransformFromTuple((Vector6d() << 0.4, -1.1, 2.0, 0.1, -0.2, 1.5).finished());
   GradientSolverOptions options;
   options.initial_step_translation_m = 0.005;
   options.initial_step_rotation_rad = RadiansFromDegrees(0.1);
-  Vector6d width;
-  width << Eigen::Vector3d::Constant(options.initial_step_translation_m),
-      Eigen::Vector3d::Constant(options.initial_step_rotation_rad);
+  const Vector6d width = ParameterScales(options);
   // Plus a deterministic jitter of +-1e-9, as a sum over ~1e6 single-precision
   // samples has (measured on NID: ~2e-9 between points 1e-4 deg apart).
   const auto bowl = [&](const Eigen::Isometry3d& T) {
@@ -273,9 +279,7 @@ TEST(GradientSolver, LbfgsCrossesAFlatBowlFromItsFirstStep) {
 TEST(GradientSolver, ShortLineSearchesSpendFewerEvaluationsOnARoughCost) {
   const Eigen::Isometry3d T_min = TransformFromTuple((Vector6d() << 0.2, -0.4, 1.0, 0.1, 0.05, -0.3).finished());
   GradientSolverOptions options;
-  Vector6d width;
-  width << Eigen::Vector3d::Constant(options.initial_step_translation_m),
-      Eigen::Vector3d::Constant(options.initial_step_rotation_rad);
+  const Vector6d width = ParameterScales(options);
   const auto smooth = [&](const Eigen::Isometry3d& T) {
     return 1e-4 * LogSE3(T * T_min.inverse()).cwiseQuotient(width).squaredNorm();
   };
@@ -310,9 +314,6 @@ TEST(GradientSolver, ShortLineSearchesSpendFewerEvaluationsOnARoughCost) {
   EXPECT_FALSE(options.IsValid());
 }
 
-// --run-radius-*: a run whose minimum lies 1 m / 20 deg away stops at the wall
-// around its start (the wall's pull balances the bowl's within a millimetre);
-// without a radius the same run reaches the minimum.
 // A coarse-to-fine schedule ends its middle stages at the coarse function tolerance, its first and last at the
 // run's own. The valley's floor falls slowly (one direction 1000 times flatter) and each stage's minimum is
 // elsewhere (as a blur moves it): a loose coarse tolerance cuts the middle stage's tail only, and the last stage
@@ -320,9 +321,7 @@ TEST(GradientSolver, ShortLineSearchesSpendFewerEvaluationsOnARoughCost) {
 TEST(GradientSolver, MiddleStagesStopAtTheCoarseTolerance) {
   const Eigen::Isometry3d T_min = TransformFromTuple((Vector6d() << 0.2, -0.4, 1.0, 0.1, 0.05, -0.3).finished());
   GradientSolverOptions options;
-  Vector6d width;
-  width << Eigen::Vector3d::Constant(options.initial_step_translation_m),
-      Eigen::Vector3d::Constant(options.initial_step_rotation_rad);
+  const Vector6d width = ParameterScales(options);
   Vector6d curvature;
   curvature << 1e-4, 1e-4, 1e-4, 1e-4, 1e-4, 1e-7;
   double shift = 0.0;  // the current stage's minimum, in parameter scales along every axis
@@ -370,6 +369,9 @@ TEST(GradientSolver, MiddleStagesStopAtTheCoarseTolerance) {
   EXPECT_TRUE(two_loose.isApprox(two_tight, 0.0));
 }
 
+// --run-radius-*: a run whose minimum lies 1 m / 20 deg away stops at the wall
+// around its start (the wall's pull balances the bowl's within a millimetre);
+// without a radius the same run reaches the minimum.
 TEST(GradientSolver, RunRadiusKeepsARunNearItsStart) {
   const Eigen::Isometry3d start = TransformFromTuple((Vector6d() << 0.1, 0.2, -0.3, 0.05, 0.1, -0.2).finished());
   Vector6d away;

@@ -103,8 +103,7 @@ void RecordCommonSettings(const CalibrationOptions& options, CalibrationResult* 
                                " iterations a run, at most " + std::to_string(options.gradient.line_search_max_steps) +
                                " trial steps a line search, function tolerance " +
                                NumberText(options.gradient.function_tolerance) + " (stages between the first and the last " +
-                               NumberText(std::max(options.gradient.function_tolerance,
-                                                   options.gradient.coarse_function_tolerance)) +
+                               NumberText(options.gradient.MiddleStageFunctionTolerance()) +
                                ")" +
                                "; one cost + gradient evaluation costs ~" + NumberText(kGradientEvaluationCost) +
                                " plain evaluations)";
@@ -304,8 +303,7 @@ std::vector<Summary> CoarseToFine(
     stage_options.initial_step_rotation_rad *= stage.step_scale;
     if constexpr (std::is_same_v<SolverOptions, GradientSolverOptions>) {
       if (s > 0 && s + 1 < stages.size()) {
-        stage_options.function_tolerance =
-            std::max(stage_options.function_tolerance, stage_options.coarse_function_tolerance);
+        stage_options.function_tolerance = stage_options.MiddleStageFunctionTolerance();
       }
     }
     for (int run = 0; run <= stage.restarts; ++run) {

@@ -15,6 +15,8 @@
 // no analytic one.
 #pragma once
 
+#include <algorithm>
+
 #include <functional>
 #include <string>
 #include <vector>
@@ -54,6 +56,7 @@ struct GradientSolverOptions {
   // keeps the basin wide (cut short, a start 30 cm / 10 deg off ran away;
   // BENCHMARK.md, "End-to-end time").
   double coarse_function_tolerance = 1e-8;
+  double MiddleStageFunctionTolerance() const { return std::max(function_tolerance, coarse_function_tolerance); }
   double gradient_tolerance = 1e-10;
   double parameter_tolerance = 1e-8;
   // Typical step per axis: metres (translation part), radians (rotation part).
