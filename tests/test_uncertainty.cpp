@@ -241,7 +241,7 @@ TEST(ErrorEstimate, SumsItsPartsAndJudges) {
               1e-12);
   EXPECT_NEAR(estimate.covariance_d(0, 0), 1e-6 + 25.0 / 6.0 * unit_t * unit_t, 1e-12);
   EXPECT_EQ(estimate.verdict, Verdict::kUnreliable);
-  EXPECT_GT(estimate.share_trajectory, 0.99);
+  EXPECT_GT(estimate.share_other_model, 0.99);
   // The other answer lies within 1 sigma along its own direction.
   EXPECT_LT(std::sqrt(TupleMahalanobisSquared(other, answer, estimate.covariance_tuple)), 1.0);
   // A drifting trajectory whose model's effect was not measured is never `good`.

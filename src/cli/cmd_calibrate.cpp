@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -87,6 +88,7 @@ struct CalibrateArguments {
   double time_budget_s = kCoreDefaults.time_budget_s;
   int max_iterations = kCoreDefaults.nelder_mead.max_iterations;
   std::string stages = StageScheduleText(kCoreDefaults.stages);
+  std::string final_swathe = "same";  // --final-swathe: same, or centred (the last stage again, both sides)
   double step_translation_m = kCoreDefaults.nelder_mead.initial_step_translation_m;
   double step_rotation_deg = DegreesFromRadians(kCoreDefaults.nelder_mead.initial_step_rotation_rad);
   std::string rotation_pivot = "origin";
@@ -184,6 +186,17 @@ int MakeCalibrationOptions(const CalibrateArguments& args, CalibrationOptions* o
 // what it set). kExitInvalidInput (logged) when it does not fit.
 int CheckSettingFitsDataset(const CalibrateArguments& args, const io::Dataset& dataset,
                             const CalibrationOptions& options) {
+  if (args.final_swathe == "centred" && dataset.rig.HasPushBroomLidar()) {
+    spdlog::error("--final-swathe centred on {}: rig.yaml has a 2D (push-broom) lidar, whose swathe sees a camera's "
+                  "view on one side of the frame only; centred swathes are for 3D lidars (--final-swathe same)",
+                  args.dataset);
+    return kExitInvalidInput;
+  }
+  if (args.final_swathe == "centred" && dataset.trajectory.size() < 2) {
+    spdlog::error("--final-swathe centred on {}: a single-pose trajectory has no swathe to centre "
+                  "(--final-swathe same)", args.dataset);
+    return kExitInvalidInput;
+  }
   const AppliedConfiguration& applied = args.applied;
   if (applied.setting.empty()) return kExitSuccess;
   if (const std::string misfit = DataMisfit(applied.requires_data, dataset.rig, dataset.trajectory.size());
@@ -335,12 +348,12 @@ void RecordCommandSettings(const CalibrateArguments& args, const std::string& si
 // The uncertainty estimate and the basin check of the answer (into *result,
 // *extra and *verdicts), unless --no-uncertainty / --no-basin-check or the time budget
 // is spent: it counts from the command's `start`.
-// other_answers: auto's push-broom answer per lidar when the drift model then
-// replaced it (its offset enters the sigma).
+// other_answers: per lidar, its answer under another model that the final one
+// replaced (auto's push-broom answer before the drift model; the one-sided
+// swathes' answer before the centred final stage): its offset enters the sigma.
 void CheckAnswer(const CalibrateArguments& args, const CalibrationOptions& options, Calibrator& calibrator,
-                 std::chrono::steady_clock::time_point start,
-                 const std::map<std::string, Eigen::Isometry3d>& other_answers, CalibrationResult* result,
-                 YAML::Node* extra, LidarVerdicts* verdicts) {
+                 std::chrono::steady_clock::time_point start, const OtherAnswers& other_answers,
+                 CalibrationResult* result, YAML::Node* extra, LidarVerdicts* verdicts) {
   const auto budget_spent = [&] {
     const double elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return args.time_budget_s > 0.0 && elapsed_s >= args.time_budget_s;
@@ -424,16 +437,20 @@ struct DatasetSolve {
 // the exit code (logged). `spent_s`: seconds of the command already spent,
 // taken off --time-budget (a second solve gets what the first left).
 // `start_from`: T_base_lidar per lidar to start from instead of the initial
-// guess (a second solve starting where the first ended).
+// guess (a second solve starting where the first ended); `adjust`: changes
+// the options of such a second solve; a solve that cannot calibrate is
+// logged as an error unless `log_failure` is false (the caller falls back).
 int SolveDataset(const CalibrateArguments& args, const io::Dataset& dataset, ProcessGroup& group,
                  DatasetSolve* solve, double spent_s = 0.0,
-                 const std::map<std::string, Eigen::Isometry3d>& start_from = {}) {
+                 const std::map<std::string, Eigen::Isometry3d>& start_from = {},
+                 const std::function<void(CalibrationOptions*)>& adjust = {}, bool log_failure = true) {
   const auto start = std::chrono::steady_clock::now();
   if (const int exit_code = MakeCalibrationOptions(args, &solve->options); exit_code != kExitSuccess) return exit_code;
   if (solve->options.time_budget_s > 0.0) {
     solve->options.time_budget_s = std::max(solve->options.time_budget_s - spent_s, 1e-3);
   }
   ApplyDatasetDefaults(dataset, args.cost, &solve->options, &solve->single_frame_defaults);
+  if (adjust) adjust(&solve->options);
   if (const int exit_code = CheckSettingFitsDataset(args, dataset, solve->options); exit_code != kExitSuccess) {
     return exit_code;
   }
@@ -452,6 +469,7 @@ int SolveDataset(const CalibrateArguments& args, const io::Dataset& dataset, Pro
   solve->calibrator = std::make_unique<Calibrator>(solve->input, solve->options,
                                                    [](const std::string& message) { spdlog::info("{}", message); });
   solve->outcome = SolveOnGroup(*solve->calibrator, group);
+  if (!log_failure && solve->outcome && solve->outcome->status != CalibrationStatus::kSuccess) return kExitFailure;
   return solve->outcome ? OutcomeExitCode(*solve->outcome) : kExitSuccess;
 }
 
@@ -509,6 +527,72 @@ int DecideOnDrift(CalibrateArguments* args, const io::Dataset& dataset, ProcessG
   return SolveDataset(*args, dataset, group, solve->get(), tested_s, push_broom_answer);
 }
 
+// --final-swathe centred: the schedule's last stage again, from the first
+// solve's answer, on swathes reaching half --swathe-length before and after
+// each frame (as many metres of travel as one-sided). The first solve's scenes
+// go first (memory). Centred swathes that leave nothing to calibrate (a lidar
+// that sees the cameras' view on one side of the frame only) are a warning:
+// the last stage then runs again on one-sided swathes from the first answer.
+// *evidence: what was done, for the result; *first_answers: the first answer
+// per lidar when the centred one replaced it.
+int CentreFinalStage(const CalibrateArguments& args, const io::Dataset& dataset, ProcessGroup& group,
+                     std::unique_ptr<DatasetSolve>* solve, double spent_s, std::string* evidence,
+                     std::map<std::string, Eigen::Isometry3d>* first_answers) {
+  if (group.distributed()) {
+    spdlog::warn("--final-swathe centred: not across MPI ranks; the one-sided answer stands");
+    *evidence = "skipped: not across MPI ranks";
+    return kExitSuccess;
+  }
+  if (args.time_budget_s > 0.0 && spent_s >= args.time_budget_s) {
+    spdlog::warn("--final-swathe centred: the time budget ({} s) is spent; the one-sided answer stands",
+                 args.time_budget_s);
+    *evidence = "skipped: time budget spent";
+    return kExitSuccess;
+  }
+  std::map<std::string, Eigen::Isometry3d> answers;
+  for (const LidarCalibration& lidar : (*solve)->outcome->result.lidars) answers[lidar.lidar] = lidar.T_base_lidar;
+  const OptimisationStage last = (*solve)->options.stages.back();
+  const double half_m = 0.5 * (*solve)->options.scenes.swathe_length_m;
+  const std::string stage_text = StageScheduleText({last});
+  const auto last_stage_only = [last](CalibrationOptions* options) { options->stages = {last}; };
+  const auto centred = [&](CalibrationOptions* options) {
+    last_stage_only(options);
+    options->scenes.direction = SwatheDirection::kBoth;
+    options->scenes.swathe_length_m = half_m;
+  };
+  spdlog::info("--final-swathe centred: the last stage ({}) again from the answer, on swathes {:g} m either side of "
+               "each frame",
+               stage_text, half_m);
+  solve->reset();  // the first solve's scenes go before the centred ones are loaded
+  *solve = std::make_unique<DatasetSolve>();
+  const int exit_code = SolveDataset(args, dataset, group, solve->get(), spent_s, answers, centred, false);
+  if (exit_code == kExitSuccess) {
+    std::vector<std::string> moved;
+    for (const LidarCalibration& lidar : (*solve)->outcome->result.lidars) {
+      const auto first = answers.find(lidar.lidar);
+      if (first == answers.end()) continue;
+      moved.push_back(fmt::format("{} by {:.2f} cm, {:.3f} deg", lidar.lidar,
+                                  100.0 * TranslationError(lidar.T_base_lidar, first->second),
+                                  RotationErrorDegrees(lidar.T_base_lidar, first->second)));
+    }
+    *first_answers = answers;
+    *evidence = fmt::format("centred: the last stage ({}) again from the one-sided answer on swathes {:g} m either "
+                            "side of each frame; it moved {}",
+                            stage_text, half_m, fmt::join(moved, "; "));
+    spdlog::info("--final-swathe {}", *evidence);
+    return kExitSuccess;
+  }
+  if (!(*solve)->outcome) return exit_code;  // the options or the setting did not fit: logged
+  const std::string why = (*solve)->outcome->why;
+  spdlog::warn("--final-swathe centred: the centred swathes cannot be calibrated ({}); the last stage runs again on "
+               "one-sided swathes from their answer",
+               why);
+  *evidence = fmt::format("not applied: the centred swathes cannot be calibrated ({})", why);
+  solve->reset();
+  *solve = std::make_unique<DatasetSolve>();
+  return SolveDataset(args, dataset, group, solve->get(), spent_s, answers, last_stage_only);
+}
+
 int RunCalibration(CalibrateArguments& args, ProcessGroup& group) {
   const auto start = std::chrono::steady_clock::now();
   // Before any work: a result that could not be written would waste the run.
@@ -529,15 +613,30 @@ int RunCalibration(CalibrateArguments& args, ProcessGroup& group) {
   }
   const Rig initial_guesses = solve->input.rig;  // a second solve starts elsewhere
   std::string drift_evidence;
-  std::map<std::string, Eigen::Isometry3d> replaced_answers;  // the push-broom answers the drift model replaced
+  // Answers of the same data under another model, whose offsets enter the sigma: the push-broom answers the drift
+  // model replaced, or the one-sided answers the centred final stage replaced.
+  std::map<std::string, Eigen::Isometry3d> other_answers;
+  std::string other_answers_are;
   if (choice.test_drift) {
     const double first_solve_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     if (const int exit_code = DecideOnDrift(&args, dataset, group, &solve, first_solve_s, &drift_evidence,
-                                              &replaced_answers);
+                                              &other_answers);
         exit_code != kExitSuccess) {
       return exit_code;
     }
     solve->outcome->result.timings_s["push_broom_solve"] = first_solve_s;
+    other_answers_are = "the answer without the drift model";
+  }
+  std::string final_swathe_evidence;
+  if (args.final_swathe == "centred") {
+    const double first_solve_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    if (const int exit_code = CentreFinalStage(args, dataset, group, &solve, first_solve_s, &final_swathe_evidence,
+                                                 &other_answers);
+        exit_code != kExitSuccess) {
+      return exit_code;
+    }
+    solve->outcome->result.timings_s["one_sided_solve"] = first_solve_s;
+    other_answers_are = "the one-sided swathes' answer";
   }
   Calibrator& calibrator = *solve->calibrator;
   CalibrationOutcome& outcome = *solve->outcome;
@@ -547,6 +646,7 @@ int RunCalibration(CalibrateArguments& args, ProcessGroup& group) {
   result.timings_s["load"] = solve->load_s;
   RecordCommandSettings(args, solve->single_frame_defaults, &result);
   if (!drift_evidence.empty()) result.settings["drift_test"] = drift_evidence;
+  if (!final_swathe_evidence.empty()) result.settings["final_swathe"] = final_swathe_evidence;
   if (solve->options.scenes.choice == SceneChoice::kInformative) {
     result.warnings.push_back(
         "the informative scene choice is experimental: at 15 frames per camera it lowered the error on the "
@@ -556,7 +656,8 @@ int RunCalibration(CalibrateArguments& args, ProcessGroup& group) {
   result.settings["trajectory_source"] = TrajectorySourceName(dataset.rig.trajectory_source);
   YAML::Node extra(YAML::NodeType::Map);
   CalibrationReportOptions report_options;
-  CheckAnswer(args, solve->options, calibrator, start, replaced_answers, &result, &extra, &report_options.verdicts);
+  CheckAnswer(args, solve->options, calibrator, start, {other_answers, other_answers_are}, &result, &extra,
+              &report_options.verdicts);
   result.timings_s["total"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   for (const std::string& warning : result.warnings) spdlog::warn("{}", warning);
   // Each frame's drift correction: what the odometry did over its swathe, as the images saw it.
@@ -667,6 +768,15 @@ void AddScheduleOptions(CLI::App* command, CalibrateArguments* args) {
                       "the initial simplex steps, BLUR is the image blur (Gaussian sigma as a fraction of the image "
                       "width), RESTARTS the extra Nelder-Mead runs while the cost still improves. Images and "
                       "visibility are refreshed before each stage. '1' = one plain run (the paper).")
+      ->capture_default_str();
+  command->add_option("--final-swathe", args->final_swathe,
+                      "same: every stage on the swathes of --direction; centred (3D lidars): then the last stage "
+                      "again, from that answer, on swathes reaching half --swathe-length before and after each "
+                      "frame. Scans on one side of the frame see the scene from elsewhere and carry the odometry's "
+                      "drift away from it, which moves the answer along the camera's depth axis; on a centred "
+                      "swathe both cancel to first order (the coarse stages keep one side: centred from the start "
+                      "lost the basin). The offset between the two answers enters the sigma (BENCHMARK.md, spin3d)")
+      ->check(CLI::IsMember({"same", "centred"}))
       ->capture_default_str();
   command->add_option("--step-translation", args->step_translation_m,
                       "Initial simplex step (lbfgs: parameter scale), metres (first stage)")

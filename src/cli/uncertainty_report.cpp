@@ -210,8 +210,8 @@ YAML::Node ReportBasinCheck(Calibrator& calibrator, double offset_deg, bool adop
 }
 
 void ReportErrorEstimate(const std::vector<LidarUncertainty>& estimates, const std::vector<LidarBasinCheck>& checks,
-                         const std::map<std::string, Eigen::Isometry3d>& other_answers, bool trajectory_drifts,
-                         CalibrationResult* result, YAML::Node* uncertainty, LidarVerdicts* verdicts) {
+                         const OtherAnswers& other_answers, bool trajectory_drifts, CalibrationResult* result,
+                         YAML::Node* uncertainty, LidarVerdicts* verdicts) {
   const UncertaintyOptions units;
   const double deg = 180.0 / M_PI;
   for (std::size_t i = 0; i < estimates.size() && i < result->lidars.size(); ++i) {
@@ -221,7 +221,7 @@ void ReportErrorEstimate(const std::vector<LidarUncertainty>& estimates, const s
       if (candidate.lidar == lidar.lidar) check = &candidate;
     }
     std::vector<Eigen::Isometry3d> others;
-    if (const auto other = other_answers.find(lidar.lidar); other != other_answers.end()) {
+    if (const auto other = other_answers.by_lidar.find(lidar.lidar); other != other_answers.by_lidar.end()) {
       others.push_back(other->second);
     }
     const LidarErrorEstimate estimate =
@@ -232,10 +232,16 @@ void ReportErrorEstimate(const std::vector<LidarUncertainty>& estimates, const s
     YAML::Node entry = (*uncertainty)[lidar.lidar];
     entry["sigma_method"] = fmt::format(
         "covariance of the error = local (flat directions: half the flat range) + the basin check's restarts' "
-        "second moment about the answer{}{}; shares of its trace: local {:.2f}, basin {:.2f}, trajectory model {:.2f}",
+        "second moment about the answer{}{}; shares of its trace: local {:.2f}, basin {:.2f}, other model {:.2f}",
         check != nullptr && check->checked ? "" : " (no basin check ran)",
-        others.empty() ? "" : " + the offset of the answer without the drift model", estimate.share_local,
-        estimate.share_basin, estimate.share_trajectory);
+        others.empty() ? "" : " + the offset of " + other_answers.are, estimate.share_local,
+        estimate.share_basin, estimate.share_other_model);
+    if (!others.empty()) {
+      // [x y z roll pitch yaw] (m, rad), as T_base_lidar: where the other model ended.
+      const Vector6d other_tuple = TupleFromTransform(others.front());
+      entry["other_model_answer"] = Numbers(other_tuple.data(), 6);
+      entry["other_model_answer_is"] = other_answers.are;
+    }
     entry["verdict"] = VerdictName(estimate.verdict);
     if (!estimate.verdict_reason.empty()) entry["verdict_reason"] = estimate.verdict_reason;
     (*verdicts)[lidar.lidar] = {VerdictName(estimate.verdict), estimate.verdict_reason};

@@ -2,7 +2,7 @@
 // (core/uncertainty.hpp), logged, written into the result under the extra key
 // `uncertainty` (the local 1-sigma within the optimiser's basin) and turned
 // into warnings where a direction is not determined; the global check that
-// restarts from further away; and both combined (with the trajectory model's
+// restarts from further away; and both combined (with other models'
 // effect) into FORMAT.md's `sigma` and `covariance` and a verdict per lidar.
 #pragma once
 
@@ -39,14 +39,21 @@ YAML::Node ReportUncertainty(Calibrator& calibrator, CalibrationResult* result,
 YAML::Node ReportBasinCheck(Calibrator& calibrator, double offset_deg, bool adopt, CalibrationResult* result,
                             std::vector<LidarBasinCheck>* checks);
 
+// Per lidar, its answer under another model that the final answer replaced,
+// and what that answer was (for the result's sigma_method).
+struct OtherAnswers {
+  std::map<std::string, Eigen::Isometry3d> by_lidar;
+  std::string are;  // "the answer without the drift model", ...
+};
+
 // The error estimate per lidar (core EstimateLidarError) from the local
 // estimates, the basin checks (empty: none ran) and other answers of the same
-// data under another trajectory model (by lidar); sets each lidar's `sigma`
+// data under another model; sets each lidar's `sigma`
 // and `covariance`, logs the verdict, adds a warning for any but `good`, and
 // adds `sigma`, `verdict` and the parts to each lidar's entry of *uncertainty;
 // *verdicts gets each estimated lidar's verdict (for the report).
 void ReportErrorEstimate(const std::vector<LidarUncertainty>& estimates, const std::vector<LidarBasinCheck>& checks,
-                         const std::map<std::string, Eigen::Isometry3d>& other_answers, bool trajectory_drifts,
-                         CalibrationResult* result, YAML::Node* uncertainty, LidarVerdicts* verdicts);
+                         const OtherAnswers& other_answers, bool trajectory_drifts, CalibrationResult* result,
+                         YAML::Node* uncertainty, LidarVerdicts* verdicts);
 
 }  // namespace scenecal::cli

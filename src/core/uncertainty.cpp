@@ -351,7 +351,7 @@ LidarErrorEstimate EstimateLidarError(const Eigen::Isometry3d& T_base_lidar, con
   if (total > 0.0) {
     estimate.share_local = units_trace(local_d) / total;
     estimate.share_basin = units_trace(basin_d) / total;
-    estimate.share_trajectory = units_trace(trajectory_d) / total;
+    estimate.share_other_model = units_trace(trajectory_d) / total;
   }
   const Matrix6d jacobian = TupleJacobian(T_base_lidar);
   estimate.covariance_tuple = jacobian * estimate.covariance_d * jacobian.transpose();

@@ -87,12 +87,12 @@ LidarUncertainty EstimateLidarUncertainty(const std::vector<const PairCost*>& pa
 //   - the basin check's restarts: the second moment of where each ended,
 //     relative to the answer (how far the optimiser's end wanders in a flat
 //     valley);
-//   - for each other answer of the same data under another model of the
-//     trajectory (auto's push-broom answer before the drift model was
-//     added), its offset's outer product plus its squared length (in units)
-//     spread over the six directions: the answer moved that much with the
-//     trajectory's model, so its remaining drift can move it as much again,
-//     in a direction not known.
+//   - for each other answer of the same data under another model (auto's
+//     push-broom answer before the drift model was added; the one-sided
+//     swathes' answer before the centred final stage), its offset's outer
+//     product plus its squared length (in units) spread over the six
+//     directions: the answer moved that much with the model, so what the
+//     final model leaves can move it as much again, in a direction not known.
 // None of them sees a bias shared by every scene (a constant odometry scale
 // error, a wrong camera model): the verdict says when the trajectory drifts.
 struct ErrorEstimateOptions {
@@ -110,8 +110,8 @@ struct LidarErrorEstimate {
   Matrix6d covariance_d = Matrix6d::Zero();      // of d (m, rad)
   Matrix6d covariance_tuple = Matrix6d::Zero();  // of [x y z roll pitch yaw] (m, rad): FORMAT.md's covariance
   Vector6d sigma_tuple = Vector6d::Zero();       // its diagonal's square root: FORMAT.md's sigma
-  // Shares of the trace of covariance_d in units (local, basin, trajectory model).
-  double share_local = 0.0, share_basin = 0.0, share_trajectory = 0.0;
+  // Shares of the trace of covariance_d in units (local, basin, other models' answers).
+  double share_local = 0.0, share_basin = 0.0, share_other_model = 0.0;
   Vector6d weakest_direction = Vector6d::Zero();  // d per 1 sigma along the covariance's largest axis (units scaled)
   Verdict verdict = Verdict::kUnreliable;
   std::string verdict_reason;  // "weak along ..." / "unreliable: ..." in words; empty when good
@@ -119,7 +119,7 @@ struct LidarErrorEstimate {
 
 // local: the lidar's local estimate (must be `estimated`); basin: its basin
 // check or null; other_answers: answers of the same data under another
-// trajectory model (may be empty); trajectory_drifts: a drift test found drift.
+// model (may be empty); trajectory_drifts: a drift test found drift.
 LidarErrorEstimate EstimateLidarError(const Eigen::Isometry3d& T_base_lidar, const LidarUncertainty& local,
                                       const LidarBasinCheck* basin,
                                       const std::vector<Eigen::Isometry3d>& other_answers, bool trajectory_drifts,
