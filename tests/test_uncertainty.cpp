@@ -234,7 +234,8 @@ TEST(ErrorEstimate, SumsItsPartsAndJudges) {
   const Eigen::Isometry3d other =
       ApplyTransformUpdate(answer, Vector6d::Unit(4) * RadiansFromDegrees(0.5), TransformUpdate::kAboutSourcePoint);
   estimate = EstimateLidarError(answer, local, nullptr, {other}, true, units);
-  // 0.5 deg = 5 units: along it (0.5 deg)^2 and 25/6 units^2 spread over every direction.
+  // 0.5 deg = 5 units, 50 local sigmas: along it (0.5 deg)^2, and 50^2/6 local variances (here 25/6 units^2)
+  // spread over every direction.
   const double unit_r = units.unit_rotation_rad, unit_t = units.unit_translation_m;
   EXPECT_NEAR(estimate.covariance_d(4, 4),
               std::pow(RadiansFromDegrees(0.01), 2) + std::pow(RadiansFromDegrees(0.5), 2) + 25.0 / 6.0 * unit_r * unit_r,
@@ -244,6 +245,18 @@ TEST(ErrorEstimate, SumsItsPartsAndJudges) {
   EXPECT_GT(estimate.share_other_model, 0.99);
   // The other answer lies within 1 sigma along its own direction.
   EXPECT_LT(std::sqrt(TupleMahalanobisSquared(other, answer, estimate.covariance_tuple)), 1.0);
+  // A local estimate ten times wider along z than elsewhere: the spread follows its shape, sized by the
+  // offset's Mahalanobis length (5 units at 0.1 units sigma: 50), not by the units' scaling.
+  LidarUncertainty oblong = DeterminedAlongEachAxis(units, 0.1);
+  oblong.directions[2].sigma_units = 1.0;
+  estimate = EstimateLidarError(answer, oblong, nullptr, {other}, false, units);
+  const double spread = 50.0 * 50.0 / 6.0;  // times the local variance
+  EXPECT_NEAR(estimate.covariance_d(2, 2), (1.0 + spread) * unit_t * unit_t, 1e-12);
+  EXPECT_NEAR(estimate.covariance_d(0, 0), (1.0 + spread) * 0.01 * unit_t * unit_t, 1e-12);
+  EXPECT_NEAR(estimate.covariance_d(4, 4),
+              std::pow(RadiansFromDegrees(0.5), 2) + (1.0 + spread) * 0.01 * unit_r * unit_r, 1e-12);
+  EXPECT_NEAR(estimate.covariance_d(0, 2), 0.0, 1e-15);
+  EXPECT_EQ(estimate.verdict, Verdict::kWeak);
   // A drifting trajectory whose model's effect was not measured is never `good`.
   estimate = EstimateLidarError(answer, local, nullptr, {}, true, units);
   EXPECT_EQ(estimate.verdict, Verdict::kUnreliable);

@@ -336,15 +336,24 @@ LidarErrorEstimate EstimateLidarError(const Eigen::Isometry3d& T_base_lidar, con
     }
     basin_d /= static_cast<double>(ends.size());
   }
-  // Each other answer: its offset's direction, plus the same magnitude spread
-  // over every direction (in units): the remaining drift's effect is taken to
-  // be as large as the model's, its direction unknown. The offset alone is a
-  // rank-1 term, and on simulated drifting drives the error lay across it.
+  // Each other answer: its offset's direction, plus a spread as large in the
+  // shape of the local covariance: what the final model leaves is taken to
+  // move the answer as far again (the offset's length in the local metric),
+  // in a direction not known, and most where the data constrain least. The
+  // offset alone is a rank-1 term, and on simulated drives the error lay
+  // across it. Isotropic in units (1 cm ~ 0.1 deg), the spread depended on
+  // that scaling: on spin3d it gave every rotation a sigma 10-20 times its
+  // error for an offset along the depth axis.
   Matrix6d trajectory_d = Matrix6d::Zero();
+  const Eigen::LDLT<Matrix6d> local_ldlt(local_d);
+  const bool local_invertible = local_ldlt.info() == Eigen::Success && local_ldlt.isPositive() &&
+                                local_ldlt.vectorD().minCoeff() > 0.0;
   for (const Eigen::Isometry3d& other : other_answers) {
     const Vector6d e = offset_d(other);
-    const double squared_units = scale.cwiseInverse().cwiseProduct(e).squaredNorm();
-    trajectory_d += e * e.transpose() + Matrix6d(scale.cwiseAbs2().asDiagonal()) * (squared_units / 6.0);
+    const Matrix6d spread = local_invertible ? Matrix6d(local_d * (e.dot(local_ldlt.solve(e)) / 6.0))
+                                             : Matrix6d(scale.cwiseAbs2().asDiagonal()) *
+                                                   (scale.cwiseInverse().cwiseProduct(e).squaredNorm() / 6.0);
+    trajectory_d += e * e.transpose() + spread;
   }
   estimate.covariance_d = local_d + basin_d + trajectory_d;
   const double total = units_trace(estimate.covariance_d);

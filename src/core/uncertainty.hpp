@@ -90,9 +90,10 @@ LidarUncertainty EstimateLidarUncertainty(const std::vector<const PairCost*>& pa
 //   - for each other answer of the same data under another model (auto's
 //     push-broom answer before the drift model was added; the one-sided
 //     swathes' answer before the centred final stage), its offset's outer
-//     product plus its squared length (in units) spread over the six
-//     directions: the answer moved that much with the model, so what the
-//     final model leaves can move it as much again, in a direction not known.
+//     product plus the local covariance scaled so that the offset's squared
+//     Mahalanobis length is spread over its six directions: the answer moved
+//     that much with the model, so what the final model leaves can move it as
+//     much again, in a direction not known.
 // None of them sees a bias shared by every scene (a constant odometry scale
 // error, a wrong camera model): the verdict says when the trajectory drifts.
 struct ErrorEstimateOptions {
