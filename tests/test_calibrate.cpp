@@ -634,6 +634,22 @@ TEST_F(CalibrateOnSimulation, CliFinalSwatheCentredSolvesTheLastStageAgainOnSwat
   EXPECT_LT(RotationErrorDegrees(estimate, truth), 0.5 * RotationErrorDegrees(initial, truth));
   EXPECT_LT(TranslationError(estimate, truth), 0.1);
 
+  // Too few camera frames for any sigma: the verdict is `unreliable`, with the reason and what to do.
+  const fs::path unsure_output = root_ / "centred_unsure.yaml";
+  ASSERT_EQ(RunCli("calibrate " + spinning.string() + " --output " + unsure_output.string() +
+                       " --scenes 5 --stages 0.1:0:0 --lbfgs-iterations 2 --no-basin-check",
+                   &text),
+            0)
+      << text;
+  const YAML::Node unsure = YAML::LoadFile(unsure_output.string());
+  ASSERT_FALSE(unsure["uncertainty"]["spin"]["estimated"].as<bool>());
+  EXPECT_EQ(unsure["uncertainty"]["spin"]["verdict"].as<std::string>(), "unreliable");
+  const std::string reason = unsure["uncertainty"]["spin"]["verdict_reason"].as<std::string>();
+  EXPECT_EQ(reason.rfind("no sigma could be estimated (", 0), 0u) << reason;
+  EXPECT_NE(reason.find("needs at least 8"), std::string::npos) << reason;
+  EXPECT_FALSE(unsure["lidars"]["spin"]["sigma"].IsDefined());
+  EXPECT_NE(text.find("the result is unreliable: no sigma could be estimated"), std::string::npos) << text;
+
   // A time budget spent by the schedule leaves none for the centred stage: the one-sided answer stands.
   const fs::path budget_output = root_ / "centred_budget.yaml";
   ASSERT_EQ(RunCli("calibrate " + spinning.string() + " --output " + budget_output.string() + quick +

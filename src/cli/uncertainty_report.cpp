@@ -226,7 +226,21 @@ void ReportErrorEstimate(const std::vector<LidarUncertainty>& estimates, const s
     }
     const LidarErrorEstimate estimate =
         EstimateLidarError(lidar.T_base_lidar, estimates[i], check, others, trajectory_drifts, units);
-    if (!estimate.estimated) continue;  // ReportUncertainty warned
+    if (!estimate.estimated) {
+      // No sigma at all (too few image times, or none used): the data give no word on how far the answer can
+      // be trusted, and a few views leave directions they do not constrain. Not `good` by default.
+      const std::string reason = fmt::format(
+          "no sigma could be estimated ({}); record more camera frames, or check the answer against the report's "
+          "overlays and cost slices",
+          estimates[i].why);
+      YAML::Node entry = (*uncertainty)[lidar.lidar];
+      entry["verdict"] = VerdictName(Verdict::kUnreliable);
+      entry["verdict_reason"] = reason;
+      (*verdicts)[lidar.lidar] = {VerdictName(Verdict::kUnreliable), reason};
+      spdlog::info("lidar {}: verdict: unreliable", lidar.lidar);
+      result->warnings.push_back(fmt::format("lidar {}: the result is unreliable: {}", lidar.lidar, reason));
+      continue;
+    }
     lidar.sigma = estimate.sigma_tuple;
     lidar.covariance = estimate.covariance_tuple;
     YAML::Node entry = (*uncertainty)[lidar.lidar];
