@@ -276,6 +276,17 @@ TEST_F(ExperimentCli, SettingFillsTheOptionsNotGiven) {
             0)
       << ReadText(Root() / "setting_again.log");
   EXPECT_EQ(errors(again / "runs.csv"), errors(output / "runs.csv"));
+  // 3d-lidar's centred final stage is calibrate's second solve: the experiment applies the rest of the preset.
+  const fs::path three_d = Root() / "setting_3d";
+  ASSERT_EQ(RunCli("experiment --dataset " + Dataset().string() +
+                       " --guesses 1 --schemes joint --metrics nid --scenes 4 --stages 1 --setting 3d-lidar --output " +
+                       three_d.string(),
+                   log),
+            0)
+      << ReadText(log);
+  EXPECT_NE(ReadText(log).find("--setting 3d-lidar: --swathe-length 10 --direction forward --lower-solver lbfgs"),
+            std::string::npos)
+      << ReadText(log);
   // An unknown setting: exit 2 before any run.
   EXPECT_EQ(RunCli("experiment --dataset " + Dataset().string() + " --setting push --output " +
                        (Root() / "setting_bad").string(),

@@ -58,8 +58,12 @@ std::vector<std::string> ApplyOptionFile(CLI::App* command, const io::OptionFile
   for (const io::OptionValue& entry : file.options) {
     const std::string where = fmt::format("{}: line {}: {}", file.source, entry.line, entry.name);
     CLI::Option* option = command->get_option_no_throw("--" + entry.name);
-    // `experiment` runs every scheme of its --schemes: a preset's scheme is for `calibrate`.
-    if (is_preset && option == nullptr && entry.name == "scheme" && command->get_option_no_throw("--schemes")) continue;
+    // `experiment` runs every scheme of its --schemes, each in one solve: a preset's scheme and its centred
+    // final stage (a second solve) are for `calibrate`.
+    if (is_preset && option == nullptr && (entry.name == "scheme" || entry.name == "final-swathe") &&
+        command->get_option_no_throw("--schemes")) {
+      continue;
+    }
     if (option == nullptr || !option->get_configurable() || option == command->get_help_ptr()) {
       throw io::InputError(fmt::format("{}: not an option that a file can set for `scenecal {}` (see scenecal {} "
                                        "--help; dataset and output paths go on the command line)",
