@@ -226,24 +226,29 @@ void ReportErrorEstimate(const std::vector<LidarUncertainty>& estimates, const s
     }
     const LidarErrorEstimate estimate =
         EstimateLidarError(lidar.T_base_lidar, estimates[i], check, others, trajectory_drifts, units);
+    YAML::Node entry = (*uncertainty)[lidar.lidar];
+    // In the result and the report, and for any but `good` a warning.
+    const auto record_verdict = [&](Verdict verdict, const std::string& reason) {
+      entry["verdict"] = VerdictName(verdict);
+      if (!reason.empty()) entry["verdict_reason"] = reason;
+      (*verdicts)[lidar.lidar] = {VerdictName(verdict), reason};
+      if (verdict != Verdict::kGood) {
+        result->warnings.push_back(
+            fmt::format("lidar {}: the result is {}: {}", lidar.lidar, VerdictName(verdict), reason));
+      }
+    };
     if (!estimate.estimated) {
       // No sigma at all (too few image times, or none used): the data give no word on how far the answer can
       // be trusted, and a few views leave directions they do not constrain. Not `good` by default.
-      const std::string reason = fmt::format(
-          "no sigma could be estimated ({}); record more camera frames, or check the answer against the report's "
-          "overlays and cost slices",
-          estimates[i].why);
-      YAML::Node entry = (*uncertainty)[lidar.lidar];
-      entry["verdict"] = VerdictName(Verdict::kUnreliable);
-      entry["verdict_reason"] = reason;
-      (*verdicts)[lidar.lidar] = {VerdictName(Verdict::kUnreliable), reason};
       spdlog::info("lidar {}: verdict: unreliable", lidar.lidar);
-      result->warnings.push_back(fmt::format("lidar {}: the result is unreliable: {}", lidar.lidar, reason));
+      record_verdict(Verdict::kUnreliable,
+                     fmt::format("no sigma could be estimated ({}); record more camera frames, or check the answer "
+                                 "against the report's overlays and cost slices",
+                                 estimates[i].why));
       continue;
     }
     lidar.sigma = estimate.sigma_tuple;
     lidar.covariance = estimate.covariance_tuple;
-    YAML::Node entry = (*uncertainty)[lidar.lidar];
     entry["sigma_method"] = fmt::format(
         "covariance of the error = local (flat directions: half the flat range) + the basin check's restarts' "
         "second moment about the answer{}{}; shares of its trace: local {:.2f}, basin {:.2f}, other model {:.2f}",
@@ -256,20 +261,13 @@ void ReportErrorEstimate(const std::vector<LidarUncertainty>& estimates, const s
       entry["other_model_answer"] = Numbers(other_tuple.data(), 6);
       entry["other_model_answer_is"] = other_answers.are;
     }
-    entry["verdict"] = VerdictName(estimate.verdict);
-    if (!estimate.verdict_reason.empty()) entry["verdict_reason"] = estimate.verdict_reason;
-    (*verdicts)[lidar.lidar] = {VerdictName(estimate.verdict), estimate.verdict_reason};
+    record_verdict(estimate.verdict, estimate.verdict_reason);
     entry["weakest_direction_1sigma_d"] = Numbers(estimate.weakest_direction.data(), 6);
     const Vector6d& s = estimate.sigma_tuple;
     spdlog::info("lidar {}: 1-sigma of the result x {:.2f} y {:.2f} z {:.2f} cm, roll {:.3f} pitch {:.3f} yaw {:.3f} "
                  "deg; largest along {}; verdict: {}",
                  lidar.lidar, 100 * s[0], 100 * s[1], 100 * s[2], deg * s[3], deg * s[4], deg * s[5],
                  DescribeLocalUpdate(estimate.weakest_direction), VerdictName(estimate.verdict));
-    if (estimate.verdict != Verdict::kGood) {
-      result->warnings.push_back(
-          fmt::format("lidar {}: the result is {}: {}", lidar.lidar, VerdictName(estimate.verdict),
-                      estimate.verdict_reason));
-    }
   }
 }
 

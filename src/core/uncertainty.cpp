@@ -22,6 +22,11 @@ Eigen::Isometry3d Moved(const Eigen::Isometry3d& T_base_lidar, const Vector6d& d
   return ApplyTransformUpdate(T_base_lidar, d, TransformUpdate::kAboutSourcePoint);
 }
 
+// Whether a covariance's factorisation can be solved with: positive definite.
+bool PositiveDefinite(const Eigen::LDLT<Matrix6d>& ldlt) {
+  return ldlt.info() == Eigen::Success && ldlt.isPositive() && ldlt.vectorD().minCoeff() > 0.0;
+}
+
 // The joint cost of one lidar split into independent units (image times):
 // F = sum_u G_u, G_u = sum of the unit's scene costs weighted as the joint
 // cost weights them (mean over pairs of the mean over each pair's scenes).
@@ -289,7 +294,7 @@ double TupleMahalanobisSquared(const Eigen::Isometry3d& estimate, const Eigen::I
   Vector6d error = TupleFromTransform(estimate) - TupleFromTransform(reference);
   for (int k = 3; k < 6; ++k) error[k] = WrapAngle(error[k]);
   const Eigen::LDLT<Matrix6d> ldlt(covariance_tuple);
-  if (ldlt.info() != Eigen::Success || !ldlt.isPositive() || ldlt.vectorD().minCoeff() <= 0.0) {
+  if (!PositiveDefinite(ldlt)) {
     return std::numeric_limits<double>::infinity();
   }
   return error.dot(ldlt.solve(error));
@@ -344,23 +349,22 @@ LidarErrorEstimate EstimateLidarError(const Eigen::Isometry3d& T_base_lidar, con
   // across it. Isotropic in units (1 cm ~ 0.1 deg), the spread depended on
   // that scaling: on spin3d it gave every rotation a sigma 10-20 times its
   // error for an offset along the depth axis.
-  Matrix6d trajectory_d = Matrix6d::Zero();
+  Matrix6d other_model_d = Matrix6d::Zero();
   const Eigen::LDLT<Matrix6d> local_ldlt(local_d);
-  const bool local_invertible = local_ldlt.info() == Eigen::Success && local_ldlt.isPositive() &&
-                                local_ldlt.vectorD().minCoeff() > 0.0;
+  const bool local_invertible = PositiveDefinite(local_ldlt);
   for (const Eigen::Isometry3d& other : other_answers) {
     const Vector6d e = offset_d(other);
     const Matrix6d spread = local_invertible ? Matrix6d(local_d * (e.dot(local_ldlt.solve(e)) / 6.0))
                                              : Matrix6d(scale.cwiseAbs2().asDiagonal()) *
                                                    (scale.cwiseInverse().cwiseProduct(e).squaredNorm() / 6.0);
-    trajectory_d += e * e.transpose() + spread;
+    other_model_d += e * e.transpose() + spread;
   }
-  estimate.covariance_d = local_d + basin_d + trajectory_d;
+  estimate.covariance_d = local_d + basin_d + other_model_d;
   const double total = units_trace(estimate.covariance_d);
   if (total > 0.0) {
     estimate.share_local = units_trace(local_d) / total;
     estimate.share_basin = units_trace(basin_d) / total;
-    estimate.share_other_model = units_trace(trajectory_d) / total;
+    estimate.share_other_model = units_trace(other_model_d) / total;
   }
   const Matrix6d jacobian = TupleJacobian(T_base_lidar);
   estimate.covariance_tuple = jacobian * estimate.covariance_d * jacobian.transpose();
