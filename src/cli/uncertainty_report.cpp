@@ -111,7 +111,8 @@ YAML::Node ReportBasinCheck(Calibrator& calibrator, double offset_deg, bool adop
   for (const LidarBasinCheck& check : checks) {
     YAML::Node entry(YAML::NodeType::Map);
     entry["method"] = fmt::format(
-        "joint cost minimised again (the last {} stage(s) of the schedule) from the calibration's answer turned "
+        "joint cost minimised again (the last {} stage(s) of the schedule, each run once, L-BFGS to the middle "
+        "stages' function tolerance) from the calibration's answer turned "
         "+-{} deg about each base axis through the lidar origin; agree = every end within {} cm and {} deg of the "
         "answer; costs with sharp images and visibility at the calibration's answer; a restart that ends apart at a "
         "lower cost (by more than {} standard errors of the drop over the scenes) becomes the answer{}",

@@ -9,7 +9,9 @@
 // joint cost (mean over cameras through the known T_base_camera) is
 // minimised again from starts turned by +-offset about each base axis
 // (through the lidar's origin) away from the answer, with the later stages
-// of the calibration's coarse-to-fine schedule and its lower solver. The
+// of the calibration's coarse-to-fine schedule and its lower solver (each
+// stage run once, and L-BFGS to the middle stages' function tolerance: an end
+// needs resolving only well within the agreement bounds). The
 // runs agree when every one ends within agree_* of the answer; otherwise the
 // spread, and each end's cost against the answer's (sharp images, visibility
 // refreshed at the answer for both), tell a flat valley (equal costs: the
