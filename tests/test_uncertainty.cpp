@@ -213,8 +213,23 @@ TEST(ErrorEstimate, SumsItsPartsAndJudges) {
   ASSERT_TRUE(estimate.estimated);
   EXPECT_NEAR(estimate.covariance_d(0, 0), 1e-6, 1e-12);
   EXPECT_NEAR(estimate.sigma_tuple[0], 1e-3, 1e-9);  // translation maps one to one
-  EXPECT_EQ(estimate.verdict, Verdict::kGood);
   EXPECT_DOUBLE_EQ(estimate.share_local, 1.0);
+  // Small, but without a basin check not `good`: the local spread cannot see a flat valley.
+  EXPECT_EQ(estimate.verdict, Verdict::kWeak);
+  EXPECT_NE(estimate.verdict_reason.find("basin check did not run"), std::string::npos) << estimate.verdict_reason;
+  LidarBasinCheck unchecked;  // skipped (time budget): as if absent
+  EXPECT_EQ(EstimateLidarError(answer, local, &unchecked, {}, false, units).verdict, Verdict::kWeak);
+  // With restarts that all came back to the answer it is.
+  LidarBasinCheck came_back;
+  came_back.checked = true;
+  for (int i = 0; i < 6; ++i) {
+    BasinRestart restart;
+    restart.T_base_lidar_end = answer;
+    came_back.restarts.push_back(restart);
+  }
+  estimate = EstimateLidarError(answer, local, &came_back, {}, false, units);
+  EXPECT_EQ(estimate.verdict, Verdict::kGood);
+  EXPECT_TRUE(estimate.verdict_reason.empty()) << estimate.verdict_reason;
 
   // Two basin restarts ending 2 cm either side along y: their second moment adds (2 cm)^2.
   LidarBasinCheck basin;
