@@ -94,8 +94,9 @@ LidarBasinCheck CheckLidarBasin(const std::vector<PairCost*>& owned, const Lidar
   // restart's end needs resolving only well within the agreement bounds. The
   // schedule's own last-stage tolerance and restart polish the answer along
   // the flat valley at the 1e-8 level of the cost; in the restarts they spent
-  // ~40 % of the evaluations and moved no end by more than 0.05 cm / 0.01 deg
-  // (simulated RobotCar and trinocular drives, BENCHMARK.md).
+  // 38-45 % of the evaluations and moved the ends by at most 0.05 cm /
+  // 0.012 deg, one by 0.23 cm (simulated RobotCar and trinocular drives,
+  // BENCHMARK.md, "Basin check and uncertainty").
   std::vector<OptimisationStage> stages(options.stages.begin() + first, options.stages.end());
   for (OptimisationStage& stage : stages) stage.restarts = 0;
   CalibrationOptions restart_options = options;
