@@ -78,6 +78,8 @@ bool BasinCheckOptions::IsValid(std::string* why) const {
   if (last_stages < 1) return Invalid(why, "basin check: it runs at least the last stage");
   if (!(std::isfinite(adopt_min_standard_errors) && adopt_min_standard_errors >= 0.0))
     return Invalid(why, "basin check: the standard errors a lower end must clear must be a number >= 0");
+  if (!(std::isfinite(came_back_fraction) && came_back_fraction >= 0.0 && came_back_fraction < 1.0))
+    return Invalid(why, "basin check: the came-back fraction of the agreement bounds must be in [0, 1)");
   return true;
 }
 
@@ -125,6 +127,30 @@ LidarBasinCheck CheckLidarBasin(const std::vector<PairCost*>& owned, const Lidar
     nelder_mead.pivot_source = ObservedCentroid(pairs, answer.T_base_lidar).value_or(nelder_mead.pivot_source);
   }
 
+  const auto cost = [&](const Eigen::Isometry3d& candidate) { return EvaluateJoint(pairs, candidate); };
+  const auto cost_with_gradient = [&](const Eigen::Isometry3d& candidate, Vector6d* gradient) {
+    return EvaluateJointWithGradient(pairs, candidate, nelder_mead.transform_update, nelder_mead.pivot_source,
+                                     gradient);
+  };
+  // A restart that passes near the answer is done only if the answer is where
+  // the restarts' solver comes to rest: an answer that stopped short (on a
+  // slope or a flat valley's side) is passed on the way to the minimum. So the
+  // same run from the answer itself first; if it stays within the came-back
+  // bounds (a few evaluations at a minimum), the restarts may stop early.
+  bool answer_at_rest = false;
+  if (check_options.came_back_fraction > 0.0) {
+    Eigen::Isometry3d T = answer.T_base_lidar;
+    OptimisationReport report;
+    MinimiseWithLowerSolver(restart_options, stages, nelder_mead, cost, cost_with_gradient, prepare_at, &T, &report);
+    check.evaluations += report.evaluations;
+    check.answer_rest_evaluations = report.evaluations;
+    double translation_m = 0.0, rotation_rad = 0.0;
+    MeasureApart(T, answer.T_base_lidar, &translation_m, &rotation_rad);
+    answer_at_rest = translation_m <= check_options.came_back_fraction * check_options.agree_translation_m &&
+                     rotation_rad <= check_options.came_back_fraction * check_options.agree_rotation_rad;
+  }
+  check.answer_at_rest = answer_at_rest;
+
   check.checked = true;
   check.agree = true;
   for (int axis = 0; axis < 3; ++axis) {
@@ -136,14 +162,34 @@ LidarBasinCheck CheckLidarBasin(const std::vector<PairCost*>& owned, const Lidar
       offset(3 + axis) = sign * check_options.offset_rad;
       Eigen::Isometry3d T = ApplyTransformUpdate(answer.T_base_lidar, offset, TransformUpdate::kAboutSourcePoint);
       OptimisationReport report;
+      // The lowest point so far (within one stage: blurs change the cost), to stop once it is back.
+      double lowest = std::numeric_limits<double>::infinity();
+      Eigen::Isometry3d T_lowest = T;
+      const auto track = [&](double value, const Eigen::Isometry3d& candidate) {
+        if (value < lowest) {
+          lowest = value;
+          T_lowest = candidate;
+        }
+        return value;
+      };
+      const auto came_back = [&] {
+        if (!answer_at_rest || !std::isfinite(lowest)) return false;
+        double translation_m = 0.0, rotation_rad = 0.0;
+        MeasureApart(T_lowest, answer.T_base_lidar, &translation_m, &rotation_rad);
+        return translation_m <= check_options.came_back_fraction * check_options.agree_translation_m &&
+               rotation_rad <= check_options.came_back_fraction * check_options.agree_rotation_rad;
+      };
       MinimiseWithLowerSolver(
           restart_options, stages, nelder_mead,
-          [&](const Eigen::Isometry3d& candidate) { return EvaluateJoint(pairs, candidate); },
+          [&](const Eigen::Isometry3d& candidate) { return track(cost(candidate), candidate); },
           [&](const Eigen::Isometry3d& candidate, Vector6d* gradient) {
-            return EvaluateJointWithGradient(pairs, candidate, nelder_mead.transform_update,
-                                             nelder_mead.pivot_source, gradient);
+            return track(cost_with_gradient(candidate, gradient), candidate);
           },
-          prepare_at, &T, &report);
+          [&](const OptimisationStage& stage, const Eigen::Isometry3d& T_base_lidar) {
+            lowest = std::numeric_limits<double>::infinity();
+            prepare_at(stage, T_base_lidar);
+          },
+          &T, &report, came_back);
       restart.evaluations = report.evaluations;
       restart.T_base_lidar_end = T;
       MeasureApart(T, answer.T_base_lidar, &restart.translation_apart_m, &restart.rotation_apart_rad);

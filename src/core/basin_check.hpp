@@ -45,6 +45,12 @@ struct BasinCheckOptions {
   // lower by more than this many standard errors of the drop over the scenes:
   // on a flat valley the ends' costs differ by what no scene agrees on.
   double adopt_min_standard_errors = 2.0;
+  // A restart whose best point so far lies within this fraction of both
+  // agreement bounds of the answer has come back, and stops there, when the
+  // same run from the answer itself stays within them (the answer is where
+  // the solver rests, so the rest of the run would only polish the approach
+  // to it). 0 runs every restart to its own convergence.
+  double came_back_fraction = 0.25;
 
   bool IsValid(std::string* why = nullptr) const;
   // Whether an end this far from the answer agrees with it.
@@ -72,6 +78,10 @@ struct LidarBasinCheck {
   bool checked = false;  // false: `why` says why (no used scene at the answer, time budget)
   std::string why;
   bool agree = false;    // every restart ended within the agreement bounds
+  // The run from the answer itself (BasinCheckOptions::came_back_fraction):
+  // whether it stayed, so that restarts could stop once back, and its cost.
+  bool answer_at_rest = false;
+  int answer_rest_evaluations = 0;
   double cost_answer = 0.0;  // joint cost at the answer (sharp images, visibility at the answer)
   double max_translation_apart_m = 0.0;
   double max_rotation_apart_rad = 0.0;
