@@ -8,7 +8,8 @@
 # ("1 2"), each start PERTURB_T m / PERTURB_R deg (0.1, 3) from the truth. rig.yaml's trajectory_source is removed
 # so that the default decides about drift from the data. Per lidar and run: the error, the Mahalanobis distance of
 # the error under the result's covariance (6 dof: 95 % within 3.55), 2 sigma over the error per axis, the
-# verdict, and the uncertainty's time (local estimate + basin check) against the calibration's.
+# verdict, the uncertainty's time (local estimate + basin check) against the calibration's, and the error in
+# pixels (the RMS misalignment it causes normal to the image edges).
 #
 # Prints a Markdown table per group and in all (OUT_DIR/table.md): runs, the share within the 95 % ellipsoid, the
 # median over axes and runs of 2 sigma / |error|, the verdicts, and the share of `good` verdicts whose error is
@@ -32,7 +33,7 @@ mkdir -p "$out/data" "$out/runs"
 results="$out/results.tsv"
 [[ ${TABLE_ONLY:-0} == 1 ]] && presets=""
 [[ ${TABLE_ONLY:-0} == 1 || -f $results ]] ||
-  printf 'preset\todometry\tworld\tstart\tlidar\ttranslation_m\trotation_deg\tmahalanobis\tratios\tverdict\tcalibrate_s\tuncertainty_s\n' >"$results"
+  printf 'preset\todometry\tworld\tstart\tlidar\ttranslation_m\trotation_deg\tmahalanobis\tratios\tverdict\tcalibrate_s\tuncertainty_s\terror_px\n' >"$results"
 
 for preset in $presets; do
   for odometry in $odometries; do
@@ -54,10 +55,12 @@ truth = yaml.safe_load(open(truth_file))['lidars']
 timings = result.get('timings_s', {})
 calibrate_s = timings.get('total', 0.0) - timings.get('uncertainty', 0.0) - timings.get('basin_check', 0.0)
 uncertainty_s = timings.get('uncertainty', 0.0) + timings.get('basin_check', 0.0)
-distance = {}
+distance, pixels = {}, {}
 for line in open(run + '.txt'):
     if 'error in sigmas: Mahalanobis' in line:
         distance[line.split()[1]] = float(line.split('Mahalanobis')[1].split()[0])
+    if 'error in pixels:' in line:
+        pixels[line.split()[1]] = float(line.split('error in pixels:')[1].split()[0])
 for name, lidar in result['lidars'].items():
     estimate, reference = lidar['T_base_lidar'], truth[name]['T_base_lidar']
     error = [estimate[i] - reference[i] if i < 3 else math.remainder(estimate[i] - reference[i], 2 * math.pi)
@@ -71,7 +74,7 @@ for name, lidar in result['lidars'].items():
             t_error, r_error = [float(x) for x in re.findall(r'[-+]?\d+\.\d+', line.split('error:')[1])[:2]]
     print('\t'.join([preset, odometry, world, start, name, f'{t_error:.5f}', f'{r_error:.4f}',
                      f'{distance.get(name, float("inf")):.3f}', ratios, verdict, f'{calibrate_s:.1f}',
-                     f'{uncertainty_s:.1f}']))
+                     f'{uncertainty_s:.1f}', f'{pixels.get(name, float("nan")):.3f}']))
 PY
         tail -n1 "$results" >&2
       done
@@ -92,14 +95,16 @@ def line(label, rs):
     share = statistics.median(float(r['uncertainty_s']) / max(float(r['calibrate_s']), 1e-9) for r in rs)
     t = statistics.median(100 * float(r['translation_m']) for r in rs)
     a = statistics.median(float(r['rotation_deg']) for r in rs)
+    px = [float(r.get('error_px') or 'nan') for r in rs]
+    px = statistics.median(px) if all(p == p for p in px) else float('nan')
     return (f'| {label} | {len(rs)} | {inside} ({100 * inside / len(rs):.0f} %) | '
-            f'{statistics.median(ratios) if ratios else float("nan"):.2f} | {t:.2f} cm, {a:.3f} deg | '
+            f'{statistics.median(ratios) if ratios else float("nan"):.2f} | {t:.2f} cm, {a:.3f} deg, {px:.2f} px | '
             + ', '.join(f'{k} {v}' for k, v in sorted(verdicts.items()))
             + f' | {good_ok} of {len(good)} | {share:.2f} |')
 groups = {}
 for r in rows: groups.setdefault((r['preset'], r['odometry']), []).append(r)
 lines = ['| data | lidar runs | error within the 95 % ellipsoid | median 2 sigma / abs(error), per axis | '
-         'median error | verdicts | `good` within 1 cm / 0.2 deg | uncertainty time / calibration time (median) |',
+         'median error (and in pixels normal to the image edges) | verdicts | `good` within 1 cm / 0.2 deg | uncertainty time / calibration time (median) |',
          '|---|---|---|---|---|---|---|---|']
 for (preset, odometry), rs in groups.items(): lines.append(line(f'{preset}, {odometry} odometry', rs))
 if rows: lines.append(line('all', rows))

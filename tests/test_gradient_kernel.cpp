@@ -232,6 +232,7 @@ TEST(GradientKernel, AlignmentInformationMatchesThePerPointReference) {
   const cv::Mat& image = t.swathe.Image();
   for (const Eigen::Isometry3d& T : TestPoses()) {
     Matrix6d reference = Matrix6d::Zero();
+    double reference_weight = 0.0;  // sum of contrast x |image gradient|^2
     t.swathe.ForEachProjected(T, true, [&](std::size_t i, float, float u, float v, float) {
       if (!(u >= 1.0f && u < image.cols - 2.0f && v >= 1.0f && v < image.rows - 2.0f)) return;
       double contrast = 0.0;
@@ -248,9 +249,12 @@ TEST(GradientKernel, AlignmentInformationMatchesThePerPointReference) {
       dp_ddelta.rightCols<3>() = -T_kj.linear() * Skew(w);
       const Eigen::Matrix<double, 1, 6> j = di_duv * ReferenceProjectionJacobian(params, p) * dp_ddelta;
       reference += contrast * j.transpose() * j;
+      reference_weight += contrast * di_duv.squaredNorm();
     });
-    const Matrix6d fast = t.swathe.AlignmentInformation(T);
+    double weight = -1.0;
+    const Matrix6d fast = t.swathe.AlignmentInformation(T, &weight);
     ASSERT_GT(reference.norm(), 0.0);
+    EXPECT_NEAR(weight, reference_weight, 1e-4 * reference_weight);  // float projection, as the matrix
     EXPECT_LT((fast - reference).norm() / reference.norm(), 1e-4) << "fast:\n" << fast << "\nreference:\n" << reference;
   }
 }

@@ -10,6 +10,7 @@
 #include <memory>
 #include <sstream>
 
+#include <Eigen/Eigenvalues>
 #include <gtest/gtest.h>
 #include <unistd.h>
 #include <yaml-cpp/yaml.h>
@@ -36,22 +37,32 @@ class UncertaintyOnSimulation : public ::testing::Test {
   }
   static void TearDownTestSuite() { fs::remove_all(root_); }
 
-  // The estimate at the truth from `scenes` scenes per camera.
-  static LidarUncertainty AtTruth(int scenes, const UncertaintyOptions& uncertainty_options = {}) {
+  // Every camera's pair with the rear lidar, B-spline binning, `scenes` scenes per camera, visibility at the truth.
+  struct PairsAtTruth {
+    CalibrationInput input;
+    Eigen::Isometry3d truth;
+    std::vector<std::unique_ptr<PairCost>> costs;
+    std::vector<const PairCost*> pairs;
+  };
+  static PairsAtTruth BuildAtTruth(int scenes) {
     const io::Dataset dataset = io::OpenDataset(dataset_);
     CalibrationOptions options;
     options.scenes.scenes_per_camera = scenes;
     options.cost.histogram.binning = Binning::kBSpline;
-    const CalibrationInput input = test::LoadCalibrationInput(dataset, options.scenes);
-    const Eigen::Isometry3d truth = dataset.ground_truth->T_base_lidar.at("lms_rear");
-    std::vector<std::unique_ptr<PairCost>> costs;
-    std::vector<const PairCost*> pairs;
-    for (const CameraInfo& camera : input.rig.cameras) {
-      costs.push_back(std::make_unique<PairCost>(BuildPairCost(input, camera, "lms_rear", options)));
-      costs.back()->RefreshVisibility(camera.T_camera_base() * truth);
-      pairs.push_back(costs.back().get());
+    PairsAtTruth built{test::LoadCalibrationInput(dataset, options.scenes),
+                       dataset.ground_truth->T_base_lidar.at("lms_rear"), {}, {}};
+    for (const CameraInfo& camera : built.input.rig.cameras) {
+      built.costs.push_back(std::make_unique<PairCost>(BuildPairCost(built.input, camera, "lms_rear", options)));
+      built.costs.back()->RefreshVisibility(camera.T_camera_base() * built.truth);
+      built.pairs.push_back(built.costs.back().get());
     }
-    return EstimateLidarUncertainty(pairs, truth, uncertainty_options);
+    return built;
+  }
+
+  // The estimate at the truth from `scenes` scenes per camera.
+  static LidarUncertainty AtTruth(int scenes, const UncertaintyOptions& uncertainty_options = {}) {
+    const PairsAtTruth built = BuildAtTruth(scenes);
+    return EstimateLidarUncertainty(built.pairs, built.truth, uncertainty_options);
   }
 
   static fs::path root_;
@@ -119,6 +130,49 @@ TEST_F(UncertaintyOnSimulation, FewerScenesGiveALargerSigma) {
   EXPECT_LT(median, 2.6);
 }
 
+// edge_information_d in the base axes against each camera's own information
+// (SceneSwathe::AlignmentInformation, camera axes) with the change carried
+// into the camera by the library's own transform updates: the same squared
+// misalignment for any d, and a sensible size for a 0.1 deg turn.
+TEST_F(UncertaintyOnSimulation, EdgeInformationIsTheCamerasMisalignmentOfAChange) {
+  const PairsAtTruth built = BuildAtTruth(8);
+  const std::vector<const PairCost*>& pairs = built.pairs;
+  const Eigen::Isometry3d& truth = built.truth;
+  const LidarUncertainty estimate = EstimateLidarUncertainty(pairs, truth, {});
+  ASSERT_TRUE(estimate.estimated) << estimate.why;
+  const Matrix6d& information = estimate.edge_information_d;
+  EXPECT_LT((information - information.transpose()).norm(), 1e-9 * information.norm());
+  EXPECT_GT(Eigen::SelfAdjointEigenSolver<Matrix6d>(information).eigenvalues()[0], 0.0);
+  constexpr double kStep = 1e-6;
+  for (int trial = 0; trial < 4; ++trial) {
+    Vector6d d = Vector6d::Random();
+    d.head<3>() *= 0.01;                       // ~1 cm
+    d.tail<3>() *= RadiansFromDegrees(0.1);    // ~0.1 deg
+    double squared = 0.0, weight = 0.0;
+    for (const PairCost* pair : pairs) {
+      const Eigen::Isometry3d T_camera_lidar = pair->Camera().T_camera_base() * truth;
+      const Eigen::Isometry3d moved = pair->Camera().T_camera_base() *
+                                      ApplyTransformUpdate(truth, kStep * d, TransformUpdate::kAboutSourcePoint);
+      const Vector6d d_camera =
+          TransformUpdateBetween(T_camera_lidar, moved, TransformUpdate::kAboutSourcePoint) / kStep;
+      double pair_weight = 0.0;
+      const Matrix6d pair_information = pair->AlignmentInformation(T_camera_lidar, &pair_weight);
+      squared += d_camera.dot(pair_information * d_camera);
+      weight += pair_weight;
+    }
+    ASSERT_GT(weight, 0.0);
+    EXPECT_NEAR(d.dot(information * d), squared / weight, 1e-6 * squared / weight) << "d " << d.transpose();
+  }
+  // A 0.1 deg turn about the base's vertical axis moves the edges by about f x 0.1 deg (more towards the image's
+  // sides, and the lidar origin's offset from the camera adds a shift), a fair fraction of it normal to them:
+  // pixels, not millimetres or radians.
+  const Vector6d turn = Vector6d::Unit(5) * RadiansFromDegrees(0.1);
+  const double focal_px = built.input.rig.cameras.front().model.fx;
+  const double rms_px = std::sqrt(turn.dot(information * turn));
+  EXPECT_LT(rms_px, 3.0 * focal_px * RadiansFromDegrees(0.1));
+  EXPECT_GT(rms_px, 0.1 * focal_px * RadiansFromDegrees(0.1));
+}
+
 TEST_F(UncertaintyOnSimulation, NoRiseWithinTheSearchIsUndetermined) {
   UncertaintyOptions tiny;
   tiny.max_search_units = 0.25;  // 2.5 mm / 0.025 deg: the cost cannot rise significantly
@@ -170,6 +224,10 @@ TEST_F(UncertaintyOnSimulation, CliWritesTheEstimate) {
   std::ifstream printed(root_ / "out.txt");
   const std::string out((std::istreambuf_iterator<char>(printed)), std::istreambuf_iterator<char>());
   EXPECT_NE(out.find("lidar lms_rear T_base_lidar error in sigmas: Mahalanobis"), std::string::npos) << out;
+  // The size of a 1-pixel misalignment of the edges, and the error in those pixels.
+  ASSERT_TRUE(entry["edge_pixel_covariance"].IsSequence());
+  EXPECT_EQ(entry["edge_pixel_covariance"].size(), 36u);
+  EXPECT_NE(out.find("lidar lms_rear T_base_lidar error in pixels: "), std::string::npos) << out;
   EXPECT_EQ(result["settings"]["occlusion"].as<std::string>(), "zbuffer (cell width/80 px, margin 0.2 x depth + 0.3 m)");
   // And --no-uncertainty leaves it out (here with other z-buffer settings, recorded as given).
   const std::string skip = std::string(SCENECAL_CLI_PATH) + " calibrate " + dataset_.string() +
@@ -291,6 +349,61 @@ TEST(ErrorEstimate, SumsItsPartsAndJudges) {
 // distances and the agreement are then measured from it, the calibration's
 // own answer counting as one more end, and the basin part of the error
 // estimate moves with it.
+// Sizes in pixels: the one-pixel covariance is the inverse of the edges' information (an error that misaligns
+// them by 1 px RMS lies at 1 under it), the floor adds alignment_floor_px^2 times it, largest along what the edges
+// show least, and the sigma's own size is sqrt(trace(information x covariance)).
+TEST(ErrorEstimate, APixelFloorAlongWhatTheEdgesShowLeast) {
+  const UncertaintyOptions units;
+  const double unit_t = units.unit_translation_m, unit_r = units.unit_rotation_rad;
+  const Eigen::Isometry3d answer = TransformFromTuple((Vector6d() << 1.0, 0.2, 0.5, 0.0, 0.1, 0.3).finished());
+  LidarUncertainty local = DeterminedAlongEachAxis(units, 0.1);  // 1 mm, 0.01 deg
+  LidarBasinCheck came_back;
+  came_back.checked = true;
+  for (int i = 0; i < 6; ++i) {
+    BasinRestart restart;
+    restart.T_base_lidar_end = answer;
+    came_back.restarts.push_back(restart);
+  }
+  // No edge information (none measured): no floor, no sizes in pixels.
+  const LidarErrorEstimate without = EstimateLidarError(answer, local, &came_back, {}, false, units);
+  EXPECT_TRUE(without.one_pixel_covariance_tuple.isZero());
+  EXPECT_EQ(without.sigma_px, 0.0);
+  EXPECT_EQ(without.share_floor, 0.0);
+  EXPECT_EQ(without.verdict, Verdict::kGood);
+  // 1 cm moves the edges 4 px, 0.1 deg about x or y 2 px, about z only 0.02 px.
+  Vector6d px_per_step;
+  px_per_step << 4.0 / unit_t, 4.0 / unit_t, 4.0 / unit_t, 2.0 / unit_r, 2.0 / unit_r, 0.02 / unit_r;
+  local.edge_information_d = px_per_step.cwiseAbs2().asDiagonal();
+  ErrorEstimateOptions no_floor;
+  no_floor.alignment_floor_px = 0.0;
+  const LidarErrorEstimate sized = EstimateLidarError(answer, local, &came_back, {}, false, units, no_floor);
+  EXPECT_EQ(sized.covariance_d, without.covariance_d);
+  // 5 deg about the base z axis (1 / 0.02 steps of 0.1 deg) misaligns the edges by 1 px RMS.
+  const Eigen::Isometry3d turned =
+      ApplyTransformUpdate(answer, Vector6d::Unit(5) * unit_r / 0.02, TransformUpdate::kAboutSourcePoint);
+  EXPECT_NEAR(TupleMahalanobisSquared(turned, answer, sized.one_pixel_covariance_tuple), 1.0, 1e-6);
+  // A 1 mm sigma on each translation and 0.01 deg on each rotation: 3 x 0.4^2 + 2 x 0.2^2 + 0.002^2 px^2.
+  EXPECT_NEAR(sized.sigma_px, std::sqrt(3 * 0.16 + 2 * 0.04 + 4e-6), 1e-9);
+
+  // The default floor, 0.02 px: 0.02 / 0.02 = 1 step (0.1 deg) more sigma about z, 0.05 mm along x.
+  const ErrorEstimateOptions defaults;
+  ASSERT_EQ(defaults.alignment_floor_px, 0.02);
+  const LidarErrorEstimate floored = EstimateLidarError(answer, local, &came_back, {}, false, units);
+  EXPECT_NEAR(floored.covariance_d(5, 5), std::pow(0.1 * unit_r, 2) + std::pow(unit_r, 2), 1e-15);
+  EXPECT_NEAR(floored.covariance_d(0, 0), std::pow(0.1 * unit_t, 2) + std::pow(0.02 * unit_t / 4.0, 2), 1e-15);
+  EXPECT_NEAR(floored.covariance_d(0, 5), 0.0, 1e-15);
+  EXPECT_GT(floored.share_floor, 0.9);
+  // 2 sigma about z is now 0.2 deg and a little more: weak along it.
+  EXPECT_EQ(floored.verdict, Verdict::kWeak);
+  EXPECT_NE(floored.verdict_reason.find("rz +0.10"), std::string::npos) << floored.verdict_reason;
+  // Edges that leave a direction free give no one-pixel covariance and no floor.
+  LidarUncertainty degenerate = local;
+  degenerate.edge_information_d(5, 5) = 0.0;
+  const LidarErrorEstimate free = EstimateLidarError(answer, degenerate, &came_back, {}, false, units);
+  EXPECT_TRUE(free.one_pixel_covariance_tuple.isZero());
+  EXPECT_EQ(free.share_floor, 0.0);
+}
+
 TEST(BasinAdoption, TakesTheLowestEndApartAndReMeasuresFromIt) {
   const Eigen::Isometry3d calibrated = TransformFromTuple((Vector6d() << 1.0, 0.2, 0.5, 0.0, 0.1, 0.3).finished());
   const auto moved = [&](double forward_m) {

@@ -14,6 +14,7 @@
 #include <set>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <fmt/format.h>
@@ -391,7 +392,9 @@ void CheckAnswer(const CalibrateArguments& args, const CalibrationOptions& optio
 
 // With ground truth in the dataset: the errors of the result per lidar (and
 // of its initial guess in `rig`) and per pair, on stdout.
-void PrintErrorsAgainstTruth(const io::Dataset& dataset, const Rig& rig, const CalibrationResult& result) {
+// uncertainty: the result's `uncertainty` mapping (its edge_pixel_covariance gives the error in pixels).
+void PrintErrorsAgainstTruth(const io::Dataset& dataset, const Rig& rig, const CalibrationResult& result,
+                             const YAML::Node& uncertainty) {
   if (!dataset.ground_truth) return;
   const GroundTruth& truth = *dataset.ground_truth;
   for (const LidarCalibration& lidar : result.lidars) {
@@ -404,6 +407,15 @@ void PrintErrorsAgainstTruth(const io::Dataset& dataset, const Rig& rig, const C
       fmt::print("lidar {} T_base_lidar error in sigmas: Mahalanobis {:.2f} (within the 95 % ellipsoid below 3.55)\n",
                  lidar.lidar,
                  std::sqrt(TupleMahalanobisSquared(lidar.T_base_lidar, gt->second, *lidar.covariance)));
+    }
+    const YAML::Node entry = uncertainty.IsDefined() && uncertainty.IsMap() ? uncertainty[lidar.lidar] : YAML::Node();
+    const YAML::Node edges = entry.IsDefined() && entry.IsMap() ? entry["edge_pixel_covariance"] : YAML::Node();
+    if (edges.IsDefined() && edges.IsSequence() && edges.size() == 36) {
+      Matrix6d one_pixel;
+      for (int k = 0; k < 36; ++k) one_pixel.data()[k] = edges[k].as<double>();
+      // The RMS misalignment, normal to the image edges, that an error this size causes.
+      fmt::print("lidar {} T_base_lidar error in pixels: {:.2f} px RMS normal to the image edges\n", lidar.lidar,
+                 std::sqrt(TupleMahalanobisSquared(lidar.T_base_lidar, gt->second, one_pixel)));
     }
     if (initial != nullptr) {
       fmt::print("lidar {} initial guess error: {}\n", lidar.lidar, ErrorLine(initial->T_base_lidar, gt->second));
@@ -675,7 +687,7 @@ int RunCalibration(CalibrateArguments& args, ProcessGroup& group) {
   }
   io::WriteCalibrationResult(args.output, result, extra);
   spdlog::info("wrote {} ({})", args.output, result.termination);
-  PrintErrorsAgainstTruth(dataset, initial_guesses, result);
+  PrintErrorsAgainstTruth(dataset, initial_guesses, result, std::as_const(extra)["uncertainty"]);
   return kExitSuccess;
 }
 
@@ -813,7 +825,8 @@ void AddAfterCalibrationOptions(CLI::App* command, CalibrateArguments* args) {
                     "the answer turned +-1 deg about each base axis, and a warning says when those runs end apart: "
                     "the data then do not pin the extrinsic down, however small the local sigma; a run that ends "
                     "apart at a clearly lower cost becomes the answer; six runs of the last stage, each once and to "
-                    "the middle stages' looser tolerance: ~4 x its evaluations; skipped when --time-budget is spent "
+                    "the middle stages' looser tolerance, a run stopping once back within a quarter of 1 cm / 0.1 deg "
+                    "of an answer where the same run rests: ~3 x its evaluations; skipped when --time-budget is spent "
                     "by then; without it the verdict is at best weak: the local spread alone does not see a flat "
                     "valley)");
   command->add_flag("--keep-calibration-answer", args->keep_calibration_answer,

@@ -112,12 +112,14 @@ YAML::Node ReportBasinCheck(Calibrator& calibrator, double offset_deg, bool adop
     YAML::Node entry(YAML::NodeType::Map);
     entry["method"] = fmt::format(
         "joint cost minimised again (the last {} stage(s) of the schedule, each run once, L-BFGS to the middle "
-        "stages' function tolerance) from the calibration's answer turned "
+        "stages' function tolerance; when the same run from the answer itself stays within {} of the agreement "
+        "bounds, a restart stops once back within them too) from the calibration's answer turned "
         "+-{} deg about each base axis through the lidar origin; agree = every end within {} cm and {} deg of the "
         "answer; costs with sharp images and visibility at the calibration's answer; a restart that ends apart at a "
         "lower cost (by more than {} standard errors of the drop over the scenes) becomes the answer{}",
-        check_options.last_stages, offset_deg, 100.0 * check_options.agree_translation_m,
-        check_options.agree_rotation_rad * deg, check_options.adopt_min_standard_errors,
+        check_options.last_stages, check_options.came_back_fraction, offset_deg,
+        100.0 * check_options.agree_translation_m, check_options.agree_rotation_rad * deg,
+        check_options.adopt_min_standard_errors,
         adopt ? "" : " (not in this run: --keep-calibration-answer)");
     entry["checked"] = check.checked;
     if (!check.checked) {
@@ -168,6 +170,9 @@ YAML::Node ReportBasinCheck(Calibrator& calibrator, double offset_deg, bool adop
     }
     entry["restarts"] = restarts;
     entry["evaluations"] = check.evaluations;
+    // Whether the run from the answer itself stayed (then restarts stopped once back near it), and its cost.
+    entry["answer_at_rest"] = check.answer_at_rest;
+    entry["answer_rest_evaluations"] = check.answer_rest_evaluations;
     entry["seconds"] = check.seconds;
     node[check.lidar] = entry;
     if (check.agree) {
@@ -214,6 +219,7 @@ void ReportErrorEstimate(const std::vector<LidarUncertainty>& estimates, const s
                          const OtherAnswers& other_answers, bool trajectory_drifts, CalibrationResult* result,
                          YAML::Node* uncertainty, LidarVerdicts* verdicts) {
   const UncertaintyOptions units;
+  const ErrorEstimateOptions error_options;
   const double deg = 180.0 / M_PI;
   for (std::size_t i = 0; i < estimates.size() && i < result->lidars.size(); ++i) {
     LidarCalibration& lidar = result->lidars[i];
@@ -226,7 +232,7 @@ void ReportErrorEstimate(const std::vector<LidarUncertainty>& estimates, const s
       others.push_back(other->second);
     }
     const LidarErrorEstimate estimate =
-        EstimateLidarError(lidar.T_base_lidar, estimates[i], check, others, trajectory_drifts, units);
+        EstimateLidarError(lidar.T_base_lidar, estimates[i], check, others, trajectory_drifts, units, error_options);
     YAML::Node entry = (*uncertainty)[lidar.lidar];
     // In the result and the report, and for any but `good` a warning.
     const auto record_verdict = [&](Verdict verdict, const std::string& reason) {
@@ -252,10 +258,16 @@ void ReportErrorEstimate(const std::vector<LidarUncertainty>& estimates, const s
     lidar.covariance = estimate.covariance_tuple;
     entry["sigma_method"] = fmt::format(
         "covariance of the error = local (flat directions: half the flat range) + the basin check's restarts' "
-        "second moment about the answer{}{}; shares of its trace: local {:.2f}, basin {:.2f}, other model {:.2f}",
+        "second moment about the answer{}{} + a floor of {} px RMS misalignment of the image edges (shared by "
+        "every scene); shares of its trace: local {:.2f}, basin {:.2f}, other model {:.2f}, floor {:.2f}",
         check != nullptr && check->checked ? "" : " (no basin check ran)",
-        others.empty() ? "" : " + the offset of " + other_answers.are, estimate.share_local,
-        estimate.share_basin, estimate.share_other_model);
+        others.empty() ? "" : " + the offset of " + other_answers.are, error_options.alignment_floor_px,
+        estimate.share_local, estimate.share_basin, estimate.share_other_model, estimate.share_floor);
+    if (!estimate.one_pixel_covariance_tuple.isZero()) {
+      // [x y z roll pitch yaw] (m, rad) per 1 px RMS misalignment of the edges: an error's size in pixels.
+      entry["edge_pixel_covariance"] = Numbers(estimate.one_pixel_covariance_tuple.data(), 36);  // symmetric
+    }
+    if (estimate.sigma_px > 0.0) entry["sigma_px"] = estimate.sigma_px;
     if (!others.empty()) {
       // [x y z roll pitch yaw] (m, rad), as T_base_lidar: where the other model ended.
       const Vector6d other_tuple = TupleFromTransform(others.front());
@@ -266,9 +278,9 @@ void ReportErrorEstimate(const std::vector<LidarUncertainty>& estimates, const s
     entry["weakest_direction_1sigma_d"] = Numbers(estimate.weakest_direction.data(), 6);
     const Vector6d& s = estimate.sigma_tuple;
     spdlog::info("lidar {}: 1-sigma of the result x {:.2f} y {:.2f} z {:.2f} cm, roll {:.3f} pitch {:.3f} yaw {:.3f} "
-                 "deg; largest along {}; verdict: {}",
+                 "deg (the image edges misaligned by {:.2f} px RMS); largest along {}; verdict: {}",
                  lidar.lidar, 100 * s[0], 100 * s[1], 100 * s[2], deg * s[3], deg * s[4], deg * s[5],
-                 DescribeLocalUpdate(estimate.weakest_direction), VerdictName(estimate.verdict));
+                 estimate.sigma_px, DescribeLocalUpdate(estimate.weakest_direction), VerdictName(estimate.verdict));
   }
 }
 

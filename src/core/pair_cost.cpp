@@ -97,6 +97,23 @@ int PairCost::FrameCount() const {
   return static_cast<int>(std::unique(times.begin(), times.end()) - times.begin());
 }
 
+Matrix6d PairCost::AlignmentInformation(const Eigen::Isometry3d& T_camera_lidar, double* gradient_weight) const {
+  std::vector<Matrix6d> per_scene(used_.size(), Matrix6d::Zero());
+  std::vector<double> weights(used_.size(), 0.0);
+  tbb::parallel_for(std::size_t{0}, used_.size(), [&](std::size_t k) {
+    ThrowIfInterrupted();
+    per_scene[k] = scenes_[used_[k]].AlignmentInformation(T_camera_lidar, &weights[k]);
+  });
+  Matrix6d information = Matrix6d::Zero();
+  double weight = 0.0;
+  for (std::size_t k = 0; k < used_.size(); ++k) {  // in order: deterministic
+    information += per_scene[k];
+    weight += weights[k];
+  }
+  *gradient_weight = weight;
+  return information;
+}
+
 InformativeChoice PairCost::KeepMostInformative(const Eigen::Isometry3d& T_camera_lidar, int count,
                                                 const InformativeChoiceOptions& options) {
   std::vector<Matrix6d> per_scene(scenes_.size(), Matrix6d::Zero());

@@ -92,6 +92,11 @@ class PairCost {
   // project under T_camera_lidar, over the used scenes; *count gets their number.
   Eigen::Vector3d SumProjectedLidarPoints(const Eigen::Isometry3d& T_camera_lidar, std::size_t* count) const;
 
+  // The used scenes' alignment information at T_camera_lidar summed
+  // (SceneSwathe::AlignmentInformation, visibility of the last refresh), and
+  // in *gradient_weight their summed gradient weights. Thread-safe.
+  Matrix6d AlignmentInformation(const Eigen::Isometry3d& T_camera_lidar, double* gradient_weight) const;
+
   // The informative scene choice (core/scene_information.hpp): keeps the
   // `count` camera frames (each with all its swathes, e.g. its range bands)
   // whose used scenes constrain T_camera_lidar most, judged at T_camera_lidar

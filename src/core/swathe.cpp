@@ -298,8 +298,10 @@ std::size_t SceneSwathe::RefreshVisibilityMask(const Eigen::Isometry3d& T_camera
   return projected;
 }
 
-Matrix6d SceneSwathe::AlignmentInformation(const Eigen::Isometry3d& T_camera_lidar) const {
+Matrix6d SceneSwathe::AlignmentInformation(const Eigen::Isometry3d& T_camera_lidar, double* gradient_weight) const {
   Matrix6d information = Matrix6d::Zero();
+  double weight = 0.0;
+  if (gradient_weight != nullptr) *gradient_weight = 0.0;
   if (image_.empty() || T_camerak_cameraj_.empty()) return information;
   const Eigen::Matrix3d R_camera_lidar = T_camera_lidar.linear();
   // Central differences one pixel either side need the bilinear footprint inside the image.
@@ -335,8 +337,10 @@ Matrix6d SceneSwathe::AlignmentInformation(const Eigen::Isometry3d& T_camera_lid
       Vector6d j;
       j << di_drho.transpose(), di_dphi;
       information.noalias() += (contrast * j) * j.transpose();  // fixed-size outer product: vectorised
+      weight += contrast * (di_du * di_du + di_dv * di_dv);
     }
   }
+  if (gradient_weight != nullptr) *gradient_weight = weight;
   return information;
 }
 

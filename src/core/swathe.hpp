@@ -241,7 +241,10 @@ class SceneSwathe {
   // dI/du the image gradient there, and w the reflectance contrast of the
   // point with its neighbours in its scan (a point on a uniform surface
   // informs a multi-modal metric as little as one on a uniform image region).
-  Matrix6d AlignmentInformation(const Eigen::Isometry3d& T_camera_lidar) const;
+  // *gradient_weight (optional) gets sum of w * |dI/du dI/dv|^2 over the same
+  // points: the information divided by it is the mean, over the edges, of the
+  // squared displacement (pixels) normal to the edge per unit of delta.
+  Matrix6d AlignmentInformation(const Eigen::Isometry3d& T_camera_lidar, double* gradient_weight = nullptr) const;
 
   // Sum of the lidar-frame coordinates (metres) of those points; *count gets their number.
   Eigen::Vector3d SumProjectedLidarPoints(const Eigen::Isometry3d& T_camera_lidar, std::size_t* count) const;

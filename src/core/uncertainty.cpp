@@ -204,6 +204,26 @@ std::string WhyUndetermined(const std::vector<UncertainDirection>& directions, c
                      options.max_search_units * options.unit_rotation_rad * 180.0 / M_PI);
 }
 
+// LidarUncertainty::edge_information_d over the used scenes of every pair.
+Matrix6d EdgeInformation(const std::vector<const PairCost*>& pairs, const Eigen::Isometry3d& T_base_lidar) {
+  Matrix6d information_d = Matrix6d::Zero();
+  double weight = 0.0;
+  for (const PairCost* pair : pairs) {
+    if (pair->UsedSceneCount() == 0) continue;
+    const Eigen::Isometry3d T_camera_base = pair->Camera().T_camera_base();
+    double pair_weight = 0.0;
+    const Matrix6d information_camera = pair->AlignmentInformation(T_camera_base * T_base_lidar, &pair_weight);
+    // d moves T_base_lidar along the base axes, rotating about the lidar origin; in the camera's axes the same
+    // change is [R_camera_base rho; R_camera_base phi] (the pivot stays the lidar origin).
+    Matrix6d to_camera = Matrix6d::Zero();
+    to_camera.topLeftCorner<3, 3>() = T_camera_base.linear();
+    to_camera.bottomRightCorner<3, 3>() = T_camera_base.linear();
+    information_d += to_camera.transpose() * information_camera * to_camera;
+    weight += pair_weight;
+  }
+  return weight > 0.0 ? Matrix6d(information_d / weight) : Matrix6d::Zero();
+}
+
 }  // namespace
 
 bool UncertaintyOptions::IsValid(std::string* why) const {
@@ -238,6 +258,7 @@ LidarUncertainty EstimateLidarUncertainty(const std::vector<const PairCost*>& pa
     return result;
   }
   result.estimated = true;
+  result.edge_information_d = EdgeInformation(pairs, T_base_lidar);
 
   // Work in units: x (dimensionless), d = scale .* x.
   Vector6d scale;
@@ -359,14 +380,28 @@ LidarErrorEstimate EstimateLidarError(const Eigen::Isometry3d& T_base_lidar, con
                                                    (scale.cwiseInverse().cwiseProduct(e).squaredNorm() / 6.0);
     other_model_d += e * e.transpose() + spread;
   }
-  estimate.covariance_d = local_d + basin_d + other_model_d;
+  // Pixels: the changes that misalign the image edges by 1 px RMS (the inverse of the edges' information).
+  const Matrix6d jacobian = TupleJacobian(T_base_lidar);
+  const Matrix6d edges_d = 0.5 * (local.edge_information_d + local.edge_information_d.transpose());
+  Matrix6d one_pixel_d = Matrix6d::Zero();
+  const Eigen::SelfAdjointEigenSolver<Matrix6d> edges(edges_d);
+  if (edges.info() == Eigen::Success && edges.eigenvalues()[0] > 1e-12 * edges.eigenvalues()[5]) {
+    one_pixel_d =
+        edges.eigenvectors() * edges.eigenvalues().cwiseInverse().asDiagonal() * edges.eigenvectors().transpose();
+    estimate.one_pixel_covariance_tuple = jacobian * one_pixel_d * jacobian.transpose();
+    estimate.one_pixel_covariance_tuple =
+        0.5 * (estimate.one_pixel_covariance_tuple + estimate.one_pixel_covariance_tuple.transpose());
+  }
+  const Matrix6d floor_d = options.alignment_floor_px * options.alignment_floor_px * one_pixel_d;
+  estimate.covariance_d = local_d + basin_d + other_model_d + floor_d;
   const double total = units_trace(estimate.covariance_d);
   if (total > 0.0) {
     estimate.share_local = units_trace(local_d) / total;
     estimate.share_basin = units_trace(basin_d) / total;
     estimate.share_other_model = units_trace(other_model_d) / total;
+    estimate.share_floor = units_trace(floor_d) / total;
   }
-  const Matrix6d jacobian = TupleJacobian(T_base_lidar);
+  estimate.sigma_px = std::sqrt(std::max(0.0, (edges_d * estimate.covariance_d).trace()));
   estimate.covariance_tuple = jacobian * estimate.covariance_d * jacobian.transpose();
   estimate.covariance_tuple = 0.5 * (estimate.covariance_tuple + estimate.covariance_tuple.transpose());
   estimate.sigma_tuple = estimate.covariance_tuple.diagonal().cwiseMax(0.0).cwiseSqrt();
