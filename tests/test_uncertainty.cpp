@@ -263,6 +263,18 @@ LidarUncertainty DeterminedAlongEachAxis(const UncertaintyOptions& units, double
 // The error estimate: local + the basin restarts' second moment + other
 // answers' offsets, mapped to the tuple; the verdict from 2 sigma against
 // 1 cm / 0.2 deg, `unreliable` for a flat direction or a drifting trajectory.
+// A basin check whose six restarts all ended at the answer.
+LidarBasinCheck EveryRestartCameBack(const Eigen::Isometry3d& answer) {
+  LidarBasinCheck check;
+  check.checked = true;
+  for (int i = 0; i < 6; ++i) {
+    BasinRestart restart;
+    restart.T_base_lidar_end = answer;
+    check.restarts.push_back(restart);
+  }
+  return check;
+}
+
 TEST(ErrorEstimate, SumsItsPartsAndJudges) {
   const UncertaintyOptions units;
   const Eigen::Isometry3d answer = TransformFromTuple((Vector6d() << 1.0, 0.2, 0.5, 0.0, 0.1, 0.3).finished());
@@ -278,13 +290,7 @@ TEST(ErrorEstimate, SumsItsPartsAndJudges) {
   LidarBasinCheck unchecked;  // skipped (time budget): as if absent
   EXPECT_EQ(EstimateLidarError(answer, local, &unchecked, {}, false, units).verdict, Verdict::kWeak);
   // With restarts that all came back to the answer it is.
-  LidarBasinCheck came_back;
-  came_back.checked = true;
-  for (int i = 0; i < 6; ++i) {
-    BasinRestart restart;
-    restart.T_base_lidar_end = answer;
-    came_back.restarts.push_back(restart);
-  }
+  const LidarBasinCheck came_back = EveryRestartCameBack(answer);
   estimate = EstimateLidarError(answer, local, &came_back, {}, false, units);
   EXPECT_EQ(estimate.verdict, Verdict::kGood);
   EXPECT_TRUE(estimate.verdict_reason.empty()) << estimate.verdict_reason;
@@ -357,13 +363,7 @@ TEST(ErrorEstimate, APixelFloorAlongWhatTheEdgesShowLeast) {
   const double unit_t = units.unit_translation_m, unit_r = units.unit_rotation_rad;
   const Eigen::Isometry3d answer = TransformFromTuple((Vector6d() << 1.0, 0.2, 0.5, 0.0, 0.1, 0.3).finished());
   LidarUncertainty local = DeterminedAlongEachAxis(units, 0.1);  // 1 mm, 0.01 deg
-  LidarBasinCheck came_back;
-  came_back.checked = true;
-  for (int i = 0; i < 6; ++i) {
-    BasinRestart restart;
-    restart.T_base_lidar_end = answer;
-    came_back.restarts.push_back(restart);
-  }
+  const LidarBasinCheck came_back = EveryRestartCameBack(answer);
   // No edge information (none measured): no floor, no sizes in pixels.
   const LidarErrorEstimate without = EstimateLidarError(answer, local, &came_back, {}, false, units);
   EXPECT_TRUE(without.one_pixel_covariance_tuple.isZero());
