@@ -146,8 +146,7 @@ LidarBasinCheck CheckLidarBasin(const std::vector<PairCost*>& owned, const Lidar
     check.answer_rest_evaluations = report.evaluations;
     double translation_m = 0.0, rotation_rad = 0.0;
     MeasureApart(T, answer.T_base_lidar, &translation_m, &rotation_rad);
-    answer_at_rest = translation_m <= check_options.came_back_fraction * check_options.agree_translation_m &&
-                     rotation_rad <= check_options.came_back_fraction * check_options.agree_rotation_rad;
+    answer_at_rest = check_options.CameBack(translation_m, rotation_rad);
   }
   check.answer_at_rest = answer_at_rest;
 
@@ -176,8 +175,7 @@ LidarBasinCheck CheckLidarBasin(const std::vector<PairCost*>& owned, const Lidar
         if (!answer_at_rest || !std::isfinite(lowest)) return false;
         double translation_m = 0.0, rotation_rad = 0.0;
         MeasureApart(T_lowest, answer.T_base_lidar, &translation_m, &rotation_rad);
-        return translation_m <= check_options.came_back_fraction * check_options.agree_translation_m &&
-               rotation_rad <= check_options.came_back_fraction * check_options.agree_rotation_rad;
+        return check_options.CameBack(translation_m, rotation_rad);
       };
       MinimiseWithLowerSolver(
           restart_options, stages, nelder_mead,

@@ -57,6 +57,11 @@ struct BasinCheckOptions {
   bool Agrees(double translation_apart_m, double rotation_apart_rad) const {
     return translation_apart_m <= agree_translation_m && rotation_apart_rad <= agree_rotation_rad;
   }
+  // Whether a point this far from the answer is within came_back_fraction of both bounds.
+  bool CameBack(double translation_apart_m, double rotation_apart_rad) const {
+    return translation_apart_m <= came_back_fraction * agree_translation_m &&
+           rotation_apart_rad <= came_back_fraction * agree_rotation_rad;
+  }
 };
 
 struct BasinRestart {
