@@ -27,6 +27,7 @@
 #include "core/calibrator.hpp"
 #include "core/geometry.hpp"
 #include "core/motion_estimation.hpp"
+#include "core/uncertainty.hpp"
 #include "io/dataset.hpp"
 #include "io_test_support.hpp"
 #include "sim/simulator.hpp"
@@ -338,6 +339,15 @@ TEST_F(CalibrateOnSimulation, CliExitCodes) {
                    &motion_text),
             2);
   EXPECT_NE(motion_text.find("--odometry-scale"), std::string::npos) << motion_text;
+  for (const char* sigma : {"-0.5", "20", "half"}) {
+    EXPECT_EQ(RunCli("calibrate " + DatasetPath().string() + " --output " + output.string() +
+                         " --odometry-scale-sigma " + sigma,
+                     &motion_text),
+              2);
+    EXPECT_NE(motion_text.find(std::string("expected auto or a percentage in [0, 20), got '") + sigma + "'"),
+              std::string::npos)
+        << motion_text;
+  }
   // Numbers out of their domain: the message says what was expected.
   std::string number_text;
   EXPECT_EQ(RunCli("calibrate " + DatasetPath().string() + " --output " + output.string() + " --sigma0-rotation 0",
@@ -1162,12 +1172,23 @@ TEST_F(CalibrateOnSimulation, CliAutoSettingSolvesADriftingDriveAgainFromThePush
   const fs::path output = root_ / "auto_drifting.yaml";
   std::string text;
   ASSERT_EQ(RunCli("calibrate " + drifting.string() + " --output " + output.string() +
-                       " --scenes 10 --lbfgs-iterations 3 --stages 1 --alternations 2 --no-uncertainty "
-                       "--no-basin-check",
+                       " --scenes 10 --lbfgs-iterations 3 --stages 1 --alternations 2 --no-uncertainty",
                    &text),
             0)
       << text;
   const YAML::Node result = YAML::LoadFile(output.string());
+  // The trajectory drifts and its source is not given: the basin check measures what odometry's 0.5 % scale
+  // error does to the answer.
+  EXPECT_EQ(result["settings"]["trajectory_scale_sigma"].as<std::string>().rfind(
+                "0.5 % (trajectory_source not given and the trajectory drifts", 0),
+            0u)
+      << result["settings"]["trajectory_scale_sigma"];
+  const YAML::Node scale_run = result["basin_check"]["lms_rear"]["scale_run"];
+  ASSERT_TRUE(scale_run.IsMap()) << text;
+  EXPECT_DOUBLE_EQ(scale_run["scale_sigma_percent"].as<double>(), 0.5);
+  EXPECT_EQ(scale_run["T_base_lidar"].size(), 6u);
+  EXPECT_GT(scale_run["evaluations"].as<int>(), 0);
+  EXPECT_NE(text.find("with the trajectory's distances 0.50 % longer the answer moved"), std::string::npos) << text;
   const std::string evidence = result["settings"]["drift_test"].as<std::string>();
   std::cout << "[ measured ] held-out drift test on the small drifting drive: " << evidence << "\n";
   ASSERT_NE(evidence.find(": drift found"), std::string::npos) << evidence;
@@ -1443,6 +1464,61 @@ TEST_F(CalibrateOnSimulation, RecommendedPushBroomSettingComesBackFromThreeDegre
     EXPECT_EQ(result.settings.at("range_split_m"), "6");
     EXPECT_NE(result.settings.at("thinning").find("2 points per 4 px cell"), std::string::npos);
   }
+}
+
+// The trajectory's scale: the images cannot tell it from a shift of the lidar
+// along the travel, so the basin check's scale run moves the answer mostly
+// along it (the base is the left camera, looking along the travel: its z),
+// about twice as far for twice the scale; the swathes are as they were after.
+TEST_F(CalibrateOnSimulation, BasinCheckScaleRunMovesTheAnswerAlongTheTravel) {
+  const io::Dataset dataset = io::OpenDataset(DatasetPath());
+  CalibrationOptions options;
+  options.scheme = CalibrationScheme::kJoint;
+  options.scenes.scenes_per_camera = 8;
+  options.lower_solver = LowerSolver::kLbfgs;
+  options.cost.histogram.binning = Binning::kBSpline;
+  const CalibrationInput input = Load(dataset, options.scenes);
+  const Eigen::Isometry3d truth = dataset.ground_truth->T_base_lidar.at("lms_rear");
+  CalibrationResult result;
+  result.lidars.push_back({"lms_rear", truth, std::nullopt, std::nullopt});
+  Calibrator calibrator(input, options);
+  ASSERT_EQ(calibrator.Status(), CalibrationStatus::kSuccess) << calibrator.Why();
+  const auto cost_at_truth = [&] {
+    std::vector<const PairCost*> pairs;
+    for (PairCost* pair : calibrator.PairsAt("lms_rear", truth, Binning::kBSpline)) pairs.push_back(pair);
+    return EvaluateJoint(pairs, truth);
+  };
+  const double cost_before = cost_at_truth();
+  BasinCheckOptions check_options;
+  EXPECT_EQ(check_options.scale_sigma, 0.0);  // not measured unless asked
+  check_options.scale_sigma = 0.005;
+  const std::vector<LidarBasinCheck> checks = calibrator.CheckBasins(result, check_options);
+  ASSERT_EQ(checks.size(), 1u);
+  const LidarBasinCheck& check = checks[0];
+  ASSERT_TRUE(check.scale_measured);
+  EXPECT_EQ(check.scale_sigma, 0.005);
+  EXPECT_GT(check.scale_evaluations, 0);
+  const Vector6d& move = check.scale_move_d;
+  EXPECT_LT((ApplyTransformUpdate(truth, move, TransformUpdate::kAboutSourcePoint).matrix() -
+             check.T_base_lidar_scale_moved.matrix())
+                .cwiseAbs()
+                .maxCoeff(),
+            1e-9);
+  std::cout << "[ measured ] scale run, 0.5 % longer: " << DescribeLocalUpdate(move) << ", "
+            << check.scale_evaluations << " evaluations\n";
+  EXPECT_GT(move.head<3>().norm(), 0.005);
+  EXPECT_GT(std::abs(move[2]), 0.7 * move.head<3>().norm());
+  EXPECT_DOUBLE_EQ(cost_at_truth(), cost_before);  // the swathes' corrections restored
+
+  check_options.scale_sigma = 0.01;
+  const std::vector<LidarBasinCheck> twice = calibrator.CheckBasins(result, check_options);
+  ASSERT_EQ(twice.size(), 1u);
+  ASSERT_TRUE(twice[0].scale_measured);
+  std::cout << "[ measured ] scale run, 1 % longer: " << DescribeLocalUpdate(twice[0].scale_move_d) << "\n";
+  const double ratio = twice[0].scale_move_d.head<3>().norm() / move.head<3>().norm();
+  EXPECT_GT(ratio, 1.5);
+  EXPECT_LT(ratio, 2.5);
+  EXPECT_GT(twice[0].scale_move_d.head<3>().dot(move.head<3>()), 0.0);  // the same way
 }
 
 TEST_F(CalibrateOnSimulation, BasinCheckRestartsAboutEachAxisAndComparesTheEnds) {

@@ -196,7 +196,8 @@ TEST_F(UncertaintyOnSimulation, CliWritesTheEstimate) {
   const fs::path output = root_ / "result.yaml";
   const std::string command = std::string(SCENECAL_CLI_PATH) + " calibrate " + dataset_.string() +
                               " --output " + output.string() +
-                              " --setting paper --scheme joint --scenes 12 --stages 1 --max-iterations 30 > " +
+                              " --setting paper --scheme joint --scenes 12 --stages 1 --max-iterations 30"
+                              " --odometry-scale-sigma 0.3 > " +
                               (root_ / "out.txt").string() + " 2> " + (root_ / "log.txt").string();
   ASSERT_EQ(std::system(command.c_str()), 0);
   const YAML::Node result = YAML::LoadFile(output.string());
@@ -228,6 +229,15 @@ TEST_F(UncertaintyOnSimulation, CliWritesTheEstimate) {
   ASSERT_TRUE(entry["edge_pixel_covariance"].IsSequence());
   EXPECT_EQ(entry["edge_pixel_covariance"].size(), 36u);
   EXPECT_NE(out.find("lidar lms_rear T_base_lidar error in pixels: "), std::string::npos) << out;
+  // A scale error of the trajectory given: the basin check's run with longer distances, and its part of the sigma.
+  EXPECT_EQ(result["settings"]["trajectory_scale_sigma"].as<std::string>(), "0.3 % (--odometry-scale-sigma)");
+  const YAML::Node scale_run = result["basin_check"]["lms_rear"]["scale_run"];
+  ASSERT_TRUE(scale_run.IsMap());
+  EXPECT_DOUBLE_EQ(scale_run["scale_sigma_percent"].as<double>(), 0.3);
+  EXPECT_NE(entry["sigma_method"].as<std::string>().find("+ the answer's move under a 0.30 % scale error of the "
+                                                         "trajectory (basin_check.lms_rear.scale_run)"),
+            std::string::npos)
+      << entry["sigma_method"];
   EXPECT_EQ(result["settings"]["occlusion"].as<std::string>(), "zbuffer (cell width/80 px, margin 0.2 x depth + 0.3 m)");
   // And --no-uncertainty leaves it out (here with other z-buffer settings, recorded as given).
   const std::string skip = std::string(SCENECAL_CLI_PATH) + " calibrate " + dataset_.string() +
@@ -349,6 +359,44 @@ TEST(ErrorEstimate, SumsItsPartsAndJudges) {
   EXPECT_NEAR(estimate.sigma_tuple[2], 0.08, 1e-9);
   LidarUncertainty none;
   EXPECT_FALSE(EstimateLidarError(answer, none, nullptr, {}, false, units).estimated);
+}
+
+// The trajectory's scale, measured by the basin check's run with longer
+// distances: its move's outer product joins the covariance (rank 1, along the
+// move only), and with drift the verdict names it and what removes it.
+TEST(ErrorEstimate, TheScaleRunsMoveAlongItsOwnDirection) {
+  const UncertaintyOptions units;
+  const Eigen::Isometry3d answer = TransformFromTuple((Vector6d() << 1.0, 0.2, 0.5, 0.0, 0.1, 0.3).finished());
+  const LidarUncertainty local = DeterminedAlongEachAxis(units, 0.1);  // 1 mm, 0.01 deg
+  LidarBasinCheck check = EveryRestartCameBack(answer);
+  // With drift, its model's answer (here where the final one is: it adds nothing).
+  const LidarErrorEstimate without = EstimateLidarError(answer, local, &check, {answer}, true, units);
+  // 5 cm along z coupled with 0.6 deg about x: what a 0.5 % longer drive did to a rear push-broom lidar.
+  const Vector6d move = (Vector6d() << 0.0, 0.0, 0.05, RadiansFromDegrees(0.6), 0.0, 0.0).finished();
+  check.scale_measured = true;
+  check.scale_sigma = 0.005;
+  check.scale_move_d = move;
+  check.T_base_lidar_scale_moved = ApplyTransformUpdate(answer, move, TransformUpdate::kAboutSourcePoint);
+  const LidarErrorEstimate with = EstimateLidarError(answer, local, &check, {answer}, true, units);
+  ASSERT_TRUE(with.estimated);
+  EXPECT_LT((with.covariance_d - without.covariance_d - move * move.transpose()).cwiseAbs().maxCoeff(), 1e-15);
+  EXPECT_GT(with.share_scale, 0.99);
+  EXPECT_DOUBLE_EQ(without.share_scale, 0.0);
+  // An error along the move, as large, lies at 1 sigma; one across it (5 cm along x) stays 50 sigmas out.
+  const Eigen::Isometry3d along = check.T_base_lidar_scale_moved;
+  EXPECT_NEAR(std::sqrt(TupleMahalanobisSquared(along, answer, with.covariance_tuple)), 1.0, 0.02);
+  const Eigen::Isometry3d across =
+      ApplyTransformUpdate(answer, Vector6d::Unit(0) * 0.05, TransformUpdate::kAboutSourcePoint);
+  EXPECT_GT(std::sqrt(TupleMahalanobisSquared(across, answer, with.covariance_tuple)), 45.0);
+  EXPECT_EQ(with.verdict, Verdict::kUnreliable);
+  EXPECT_NE(with.verdict_reason.find("scale error of the trajectory of 0.50 %"), std::string::npos)
+      << with.verdict_reason;
+  EXPECT_NE(with.verdict_reason.find("--odometry-scale"), std::string::npos) << with.verdict_reason;
+  EXPECT_NE(with.verdict_reason.find("dz +5.00"), std::string::npos) << with.verdict_reason;
+  // Without drift the same move makes it weak along it.
+  const LidarErrorEstimate steady = EstimateLidarError(answer, local, &check, {}, false, units);
+  EXPECT_EQ(steady.verdict, Verdict::kWeak);
+  EXPECT_NE(steady.verdict_reason.find("dz +5.00"), std::string::npos) << steady.verdict_reason;
 }
 
 // A lower-cost restart end apart from the answer becomes the answer; the

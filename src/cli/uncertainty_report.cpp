@@ -95,14 +95,19 @@ YAML::Node ReportUncertainty(Calibrator& calibrator, CalibrationResult* result,
   return node;
 }
 
-YAML::Node ReportBasinCheck(Calibrator& calibrator, double offset_deg, bool adopt, CalibrationResult* result,
-                            std::vector<LidarBasinCheck>* checks_out) {
+YAML::Node ReportBasinCheck(Calibrator& calibrator, double offset_deg, bool adopt, double scale_sigma,
+                            CalibrationResult* result, std::vector<LidarBasinCheck>* checks_out) {
   const auto start = std::chrono::steady_clock::now();
   BasinCheckOptions check_options;
   check_options.offset_rad = RadiansFromDegrees(offset_deg);
+  check_options.scale_sigma = scale_sigma;
   spdlog::info("basin check: minimising the joint cost again from the answer turned +-{} deg about each base axis "
-               "(6 runs per lidar; --no-basin-check skips it)",
-               offset_deg);
+               "(6 runs per lidar{}; --no-basin-check skips it)",
+               offset_deg,
+               scale_sigma > 0.0 ? fmt::format(", and once from the answer with the trajectory's distances {:.2f} % "
+                                               "longer",
+                                               100.0 * scale_sigma)
+                                 : "");
   *checks_out = calibrator.CheckBasins(*result, check_options);
   if (adopt) calibrator.AdoptBetterRestarts(check_options, result, checks_out);
   const std::vector<LidarBasinCheck>& checks = *checks_out;
@@ -173,6 +178,16 @@ YAML::Node ReportBasinCheck(Calibrator& calibrator, double offset_deg, bool adop
     // Whether the run from the answer itself stayed (then restarts stopped once back near it), and its cost.
     entry["answer_at_rest"] = check.answer_at_rest;
     entry["answer_rest_evaluations"] = check.answer_rest_evaluations;
+    if (check.scale_measured) {
+      // The run with the trajectory's distances longer by its 1-sigma scale error: where the answer went.
+      YAML::Node scale(YAML::NodeType::Map);
+      scale["scale_sigma_percent"] = 100.0 * check.scale_sigma;
+      const Vector6d end = TupleFromTransform(check.T_base_lidar_scale_moved);
+      scale["T_base_lidar"] = Numbers(end.data(), 6);
+      scale["move"] = DescribeLocalUpdate(check.scale_move_d);
+      scale["evaluations"] = check.scale_evaluations;
+      entry["scale_run"] = scale;
+    }
     entry["seconds"] = check.seconds;
     node[check.lidar] = entry;
     if (check.agree) {
@@ -259,10 +274,17 @@ void ReportErrorEstimate(const std::vector<LidarUncertainty>& estimates, const s
     entry["sigma_method"] = fmt::format(
         "covariance of the error = local (flat directions: half the flat range) + the basin check's restarts' "
         "second moment about the answer{}{} + a floor of {} px RMS misalignment of the image edges (shared by "
-        "every scene); shares of its trace: local {:.2f}, basin {:.2f}, other model {:.2f}, floor {:.2f}",
+        "every scene){}; shares of its trace: local {:.2f}, basin {:.2f}, other model {:.2f}, floor {:.2f}, "
+        "scale {:.2f}",
         check != nullptr && check->checked ? "" : " (no basin check ran)",
         others.empty() ? "" : " + the offset of " + other_answers.are, error_options.alignment_floor_px,
-        estimate.share_local, estimate.share_basin, estimate.share_other_model, estimate.share_floor);
+        check != nullptr && check->scale_measured
+            ? fmt::format(" + the answer's move under a {:.2f} % scale error of the trajectory (basin_check.{}."
+                          "scale_run)",
+                          100.0 * check->scale_sigma, lidar.lidar)
+            : "",
+        estimate.share_local, estimate.share_basin, estimate.share_other_model, estimate.share_floor,
+        estimate.share_scale);
     if (!estimate.one_pixel_covariance_tuple.isZero()) {
       // [x y z roll pitch yaw] (m, rad) per 1 px RMS misalignment of the edges: an error's size in pixels.
       entry["edge_pixel_covariance"] = Numbers(estimate.one_pixel_covariance_tuple.data(), 36);  // symmetric

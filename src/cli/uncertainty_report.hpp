@@ -36,8 +36,11 @@ YAML::Node ReportUncertainty(Calibrator& calibrator, CalibrationResult* result,
 // do not come back, and returns the `basin_check` mapping (by lidar name) for
 // the result file. Run it before the uncertainty, which is then at the answer.
 // *checks: the checks themselves, per lidar of the result.
-YAML::Node ReportBasinCheck(Calibrator& calibrator, double offset_deg, bool adopt, CalibrationResult* result,
-                            std::vector<LidarBasinCheck>* checks);
+// scale_sigma: the trajectory's scale error (1 sigma, fraction; 0: not
+// measured), whose effect on the answer the check measures with one more run
+// (BasinCheckOptions::scale_sigma).
+YAML::Node ReportBasinCheck(Calibrator& calibrator, double offset_deg, bool adopt, double scale_sigma,
+                            CalibrationResult* result, std::vector<LidarBasinCheck>* checks);
 
 // Per lidar, its answer under another model that the final answer replaced,
 // and what that answer was (for the result's sigma_method).

@@ -80,6 +80,8 @@ bool BasinCheckOptions::IsValid(std::string* why) const {
     return Invalid(why, "basin check: the standard errors a lower end must clear must be a number >= 0");
   if (!(std::isfinite(came_back_fraction) && came_back_fraction >= 0.0 && came_back_fraction < 1.0))
     return Invalid(why, "basin check: the came-back fraction of the agreement bounds must be in [0, 1)");
+  if (!(std::isfinite(scale_sigma) && scale_sigma >= 0.0 && scale_sigma < 0.2))
+    return Invalid(why, "basin check: the trajectory's scale sigma must be a fraction in [0, 0.2)");
   return true;
 }
 
@@ -203,6 +205,35 @@ LidarBasinCheck CheckLidarBasin(const std::vector<PairCost*>& owned, const Lidar
                       restart.cost_end, check.cost_answer));
       check.restarts.push_back(restart);
     }
+  }
+  if (check_options.scale_sigma > 0.0) {
+    // Every swathe's steps lengthened by scale_sigma on top of its own drift
+    // correction, the answer minimised again from itself, then the
+    // corrections as they were.
+    std::vector<std::vector<SwatheMotionCorrection>> saved;
+    for (PairCost* pair : owned) {
+      saved.push_back(pair->MotionCorrections());
+      std::vector<SwatheMotionCorrection> moved = saved.back();
+      for (SwatheMotionCorrection& correction : moved) correction.scale += check_options.scale_sigma;
+      pair->SetMotionCorrections(moved);
+    }
+    Eigen::Isometry3d T = answer.T_base_lidar;
+    OptimisationReport report;
+    MinimiseWithLowerSolver(restart_options, stages, nelder_mead, cost, cost_with_gradient, prepare_at, &T, &report);
+    for (std::size_t p = 0; p < owned.size(); ++p) owned[p]->SetMotionCorrections(saved[p]);
+    prepare_at(sharp, answer.T_base_lidar);
+    check.scale_measured = true;
+    check.scale_sigma = check_options.scale_sigma;
+    check.T_base_lidar_scale_moved = T;
+    check.scale_move_d = TransformUpdateBetween(answer.T_base_lidar, T, TransformUpdate::kAboutSourcePoint);
+    check.scale_evaluations = report.evaluations;
+    check.evaluations += report.evaluations;
+    double translation_m = 0.0, rotation_rad = 0.0;
+    MeasureApart(T, answer.T_base_lidar, &translation_m, &rotation_rad);
+    say(fmt::format("basin check {}: with the trajectory's distances {:.2f} % longer the answer moved {:.2f} cm, "
+                    "{:.3f} deg",
+                    answer.lidar, 100.0 * check_options.scale_sigma, 100.0 * translation_m,
+                    DegreesFromRadians(rotation_rad)));
   }
   check.seconds = std::chrono::duration<double>(Clock::now() - start).count();
   return check;

@@ -51,6 +51,14 @@ struct BasinCheckOptions {
   // the solver rests, so the rest of the run would only polish the approach
   // to it). 0 runs every restart to its own convergence.
   double came_back_fraction = 0.25;
+  // The trajectory's scale error, 1 sigma (fraction of each distance
+  // travelled; 0: not measured). The images cannot tell a scale error from a
+  // shift of the lidar along the travel (docs/findings.md, "The drive's scale
+  // is invisible to the images"), so no restart and no spread over the scenes
+  // sees it: the same run is made once more from the answer with every
+  // swathe's steps lengthened by this fraction, and its end is where a
+  // 1-sigma scale error moves the answer.
+  double scale_sigma = 0.0;
 
   bool IsValid(std::string* why = nullptr) const;
   // Whether an end this far from the answer agrees with it.
@@ -91,6 +99,14 @@ struct LidarBasinCheck {
   double max_translation_apart_m = 0.0;
   double max_rotation_apart_rad = 0.0;
   std::vector<BasinRestart> restarts;  // x-, x+, y-, y+, z-, z+
+  // The run with the trajectory's scale moved by scale_sigma (BasinCheckOptions), when it ran.
+  bool scale_measured = false;
+  double scale_sigma = 0.0;  // fraction
+  Eigen::Isometry3d T_base_lidar_scale_moved = Eigen::Isometry3d::Identity();  // where that run ended
+  // Its move from the answer it started at, as d = [rho (m), phi (rad)]
+  // (TransformUpdate::kAboutSourcePoint): kept when a restart is adopted.
+  Vector6d scale_move_d = Vector6d::Zero();
+  int scale_evaluations = 0;
   int evaluations = 0;
   double seconds = 0.0;
   // Set when a restart's end replaced the answer (AdoptRestart): its index in

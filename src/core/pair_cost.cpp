@@ -6,6 +6,7 @@
 #include <functional>
 #include <limits>
 #include <map>
+#include <stdexcept>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -95,6 +96,20 @@ int PairCost::FrameCount() const {
   for (const SceneSwathe& scene : scenes_) times.push_back(scene.ImageTime());
   std::sort(times.begin(), times.end());
   return static_cast<int>(std::unique(times.begin(), times.end()) - times.begin());
+}
+
+std::vector<SwatheMotionCorrection> PairCost::MotionCorrections() const {
+  std::vector<SwatheMotionCorrection> corrections;
+  corrections.reserve(scenes_.size());
+  for (const SceneSwathe& scene : scenes_) corrections.push_back(scene.MotionCorrection());
+  return corrections;
+}
+
+void PairCost::SetMotionCorrections(const std::vector<SwatheMotionCorrection>& corrections) {
+  if (corrections.size() != scenes_.size()) {
+    throw std::invalid_argument("PairCost::SetMotionCorrections: one correction per scene expected");
+  }
+  for (std::size_t s = 0; s < scenes_.size(); ++s) scenes_[s].SetMotionCorrection(corrections[s]);
 }
 
 Matrix6d PairCost::AlignmentInformation(const Eigen::Isometry3d& T_camera_lidar, double* gradient_weight) const {

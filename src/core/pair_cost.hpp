@@ -108,6 +108,12 @@ class PairCost {
   // Distinct camera frames (image times) among the scenes.
   int FrameCount() const;
 
+  // Every scene's drift correction, in scene order; and setting them all (the
+  // order and count of MotionCorrections()). Not thread-safe (mutates);
+  // refresh the visibility afterwards if the swathes moved far.
+  std::vector<SwatheMotionCorrection> MotionCorrections() const;
+  void SetMotionCorrections(const std::vector<SwatheMotionCorrection>& corrections);
+
   int UsedSceneCount() const;
   int SceneCount() const { return static_cast<int>(scenes_.size()); }
   int CountState(SceneState state) const;

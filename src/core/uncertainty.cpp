@@ -393,13 +393,18 @@ LidarErrorEstimate EstimateLidarError(const Eigen::Isometry3d& T_base_lidar, con
         0.5 * (estimate.one_pixel_covariance_tuple + estimate.one_pixel_covariance_tuple.transpose());
   }
   const Matrix6d floor_d = options.alignment_floor_px * options.alignment_floor_px * one_pixel_d;
-  estimate.covariance_d = local_d + basin_d + other_model_d + floor_d;
+  // The trajectory's scale: the answer's move under a 1-sigma scale error
+  // (rank 1, the move is linear in a small scale error); no spread sees it.
+  Matrix6d scale_d = Matrix6d::Zero();
+  if (basin != nullptr && basin->scale_measured) scale_d = basin->scale_move_d * basin->scale_move_d.transpose();
+  estimate.covariance_d = local_d + basin_d + other_model_d + floor_d + scale_d;
   const double total = units_trace(estimate.covariance_d);
   if (total > 0.0) {
     estimate.share_local = units_trace(local_d) / total;
     estimate.share_basin = units_trace(basin_d) / total;
     estimate.share_other_model = units_trace(other_model_d) / total;
     estimate.share_floor = units_trace(floor_d) / total;
+    estimate.share_scale = units_trace(scale_d) / total;
   }
   estimate.sigma_px = std::sqrt(std::max(0.0, (edges_d * estimate.covariance_d).trace()));
   estimate.covariance_tuple = jacobian * estimate.covariance_d * jacobian.transpose();
@@ -430,10 +435,15 @@ LidarErrorEstimate EstimateLidarError(const Eigen::Isometry3d& T_base_lidar, con
         "with --setting auto); the sigma does not include the drift";
   } else if (trajectory_drifts && !within) {
     estimate.verdict = Verdict::kUnreliable;
+    const bool scale_measured = basin != nullptr && basin->scale_measured;
     estimate.verdict_reason = fmt::format(
-        "the trajectory drifts within the swathes and the answer moves with its model (1 sigma along {}); drift "
-        "that every scene shares is in no sigma",
-        DescribeLocalUpdate(estimate.weakest_direction));
+        "the trajectory drifts within the swathes and the answer moves with its model (1 sigma along {}); {}",
+        DescribeLocalUpdate(estimate.weakest_direction),
+        scale_measured ? fmt::format("a scale error of the trajectory of {:.2f} % (1 sigma) alone moves it along {}, and the "
+                            "images cannot see it: a scale known from GNSS or a measured distance "
+                            "(--odometry-scale) removes that part",
+                            100.0 * basin->scale_sigma, DescribeLocalUpdate(basin->scale_move_d))
+              : std::string("drift that every scene shares is in no sigma"));
   } else if (!within) {
     estimate.verdict = Verdict::kWeak;
     estimate.verdict_reason = fmt::format("weak along {} (1 sigma)", DescribeLocalUpdate(estimate.weakest_direction));

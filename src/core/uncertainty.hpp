@@ -106,9 +106,12 @@ LidarUncertainty EstimateLidarUncertainty(const std::vector<const PairCost*>& pa
 //     edges' information). The reflectance's and the image's edges need not
 //     coincide, and every scene shares that bias, so no spread sees it; it
 //     moves the answer most along what the edges show least.
-// None of them sees a larger bias shared by every scene (a constant odometry
-// scale error, a wrong camera model): the verdict says when the trajectory
-// drifts.
+//   - the trajectory's scale, when the basin check measured it
+//     (BasinCheckOptions::scale_sigma): the outer product of the answer's
+//     move under a 1-sigma scale error.
+// None of them sees another bias shared by every scene (a wrong camera
+// model, drift the correction cannot follow): the verdict says when the
+// trajectory drifts.
 struct ErrorEstimateOptions {
   // `good` when 2 sigma is within these along every axis (and nothing is flagged).
   double good_translation_m = 0.01;
@@ -131,8 +134,9 @@ struct LidarErrorEstimate {
   Matrix6d covariance_d = Matrix6d::Zero();      // of d (m, rad)
   Matrix6d covariance_tuple = Matrix6d::Zero();  // of [x y z roll pitch yaw] (m, rad): FORMAT.md's covariance
   Vector6d sigma_tuple = Vector6d::Zero();       // its diagonal's square root: FORMAT.md's sigma
-  // Shares of the trace of covariance_d in units (local, basin, other models' answers, the pixel floor).
-  double share_local = 0.0, share_basin = 0.0, share_other_model = 0.0, share_floor = 0.0;
+  // Shares of the trace of covariance_d in units (local, basin, other models' answers, the pixel floor, the
+  // trajectory's scale).
+  double share_local = 0.0, share_basin = 0.0, share_other_model = 0.0, share_floor = 0.0, share_scale = 0.0;
   // An error's size in pixels: the tuple covariance of the changes that
   // misalign the image edges by 1 px RMS (the inverse of the local estimate's
   // edge_information_d), so an error e (tuple) misaligns them by
