@@ -112,18 +112,26 @@ void PairCost::SetMotionCorrections(const std::vector<SwatheMotionCorrection>& c
   for (std::size_t s = 0; s < scenes_.size(); ++s) scenes_[s].SetMotionCorrection(corrections[s]);
 }
 
-Matrix6d PairCost::AlignmentInformation(const Eigen::Isometry3d& T_camera_lidar, double* gradient_weight) const {
-  std::vector<Matrix6d> per_scene(used_.size(), Matrix6d::Zero());
-  std::vector<double> weights(used_.size(), 0.0);
+std::vector<Matrix6d> PairCost::UsedScenesInformation(const Eigen::Isometry3d& T_camera_lidar,
+                                                      std::vector<double>* gradient_weights) const {
+  std::vector<Matrix6d> per_scene(scenes_.size(), Matrix6d::Zero());
+  gradient_weights->assign(scenes_.size(), 0.0);
   tbb::parallel_for(std::size_t{0}, used_.size(), [&](std::size_t k) {
     ThrowIfInterrupted();
-    per_scene[k] = scenes_[used_[k]].AlignmentInformation(T_camera_lidar, &weights[k]);
+    const std::size_t s = used_[k];
+    per_scene[s] = scenes_[s].AlignmentInformation(T_camera_lidar, &(*gradient_weights)[s]);
   });
+  return per_scene;
+}
+
+Matrix6d PairCost::AlignmentInformation(const Eigen::Isometry3d& T_camera_lidar, double* gradient_weight) const {
+  std::vector<double> weights;
+  const std::vector<Matrix6d> per_scene = UsedScenesInformation(T_camera_lidar, &weights);
   Matrix6d information = Matrix6d::Zero();
   double weight = 0.0;
-  for (std::size_t k = 0; k < used_.size(); ++k) {  // in order: deterministic
-    information += per_scene[k];
-    weight += weights[k];
+  for (const std::size_t s : used_) {  // in order: deterministic
+    information += per_scene[s];
+    weight += weights[s];
   }
   *gradient_weight = weight;
   return information;
@@ -131,11 +139,8 @@ Matrix6d PairCost::AlignmentInformation(const Eigen::Isometry3d& T_camera_lidar,
 
 InformativeChoice PairCost::KeepMostInformative(const Eigen::Isometry3d& T_camera_lidar, int count,
                                                 const InformativeChoiceOptions& options) {
-  std::vector<Matrix6d> per_scene(scenes_.size(), Matrix6d::Zero());
-  tbb::parallel_for(std::size_t{0}, scenes_.size(), [&](std::size_t s) {
-    ThrowIfInterrupted();
-    if (states_[s] == SceneState::kUsed) per_scene[s] = scenes_[s].AlignmentInformation(T_camera_lidar);
-  });
+  std::vector<double> weights;
+  const std::vector<Matrix6d> per_scene = UsedScenesInformation(T_camera_lidar, &weights);
   // One candidate per camera frame: its swathes together.
   std::map<TimeUs, std::size_t> frame_of_time;
   for (const SceneSwathe& scene : scenes_) frame_of_time.emplace(scene.ImageTime(), 0);
