@@ -229,6 +229,9 @@ TEST_F(UncertaintyOnSimulation, CliWritesTheEstimate) {
   ASSERT_TRUE(entry["edge_pixel_covariance"].IsSequence());
   EXPECT_EQ(entry["edge_pixel_covariance"].size(), 36u);
   EXPECT_NE(out.find("lidar lms_rear T_base_lidar error in pixels: "), std::string::npos) << out;
+  // The weakest direction in words, in the base camera's axes.
+  EXPECT_NE(entry["weakest_direction"].as<std::string>().find(" the base camera's "), std::string::npos)
+      << entry["weakest_direction"];
   // A scale error of the trajectory given: the basin check's run with longer distances, and its part of the sigma.
   EXPECT_EQ(result["settings"]["trajectory_scale_sigma"].as<std::string>(), "0.3 % (--odometry-scale-sigma)");
   const YAML::Node scale_run = result["basin_check"]["lms_rear"]["scale_run"];
@@ -397,6 +400,38 @@ TEST(ErrorEstimate, TheScaleRunsMoveAlongItsOwnDirection) {
   const LidarErrorEstimate steady = EstimateLidarError(answer, local, &check, {}, false, units);
   EXPECT_EQ(steady.verdict, Verdict::kWeak);
   EXPECT_NE(steady.verdict_reason.find("dz +5.00"), std::string::npos) << steady.verdict_reason;
+}
+
+// The weak direction in words, in the base camera's axes: the larger part
+// first (1 cm counting as 0.1 deg), its carrying axes, and the other part when
+// it is at least a third as large.
+TEST(ErrorEstimate, DescribesADirectionInTheCamerasAxes) {
+  const double deg = RadiansFromDegrees(1.0);
+  // The push-broom tilt: about the lateral axis, with a forward shift.
+  EXPECT_EQ(DescribeDirectionInWords((Vector6d() << 0.0, 0.0, 0.019, 0.31 * deg, 0.0, 0.0).finished()),
+            "a tilt about the base camera's lateral axis (x) of 0.310 deg, coupled with a shift along its optical "
+            "axis (z) of 1.90 cm");
+  // A shift alone (the rotation under a third of it), spread over two axes; the sign does not matter.
+  EXPECT_EQ(DescribeDirectionInWords((Vector6d() << 0.0, -0.03, 0.04, 0.0, 0.0, 0.01 * deg).finished()),
+            "a shift along the base camera's vertical and optical axes (y, z) of 5.00 cm");
+  EXPECT_EQ(DescribeDirectionInWords((Vector6d() << 0.0, 0.0, 0.0, 0.0, -0.2 * deg, 0.0).finished()),
+            "a turn about the base camera's vertical axis (y) of 0.200 deg");
+  EXPECT_EQ(DescribeDirectionInWords((Vector6d() << 0.0, 0.0, 0.0, 0.1 * deg, 0.1 * deg, 0.1 * deg).finished()),
+            "a rotation about the base camera's three axes (x, y, z) of 0.173 deg");
+  EXPECT_EQ(DescribeDirectionInWords((Vector6d() << 0.002, 0.0, 0.0, 0.0, 0.0, 0.5 * deg).finished()),
+            "a roll about the base camera's optical axis (z) of 0.500 deg");
+  EXPECT_EQ(DescribeDirectionInWords(Vector6d::Zero()), "no direction");
+  // The verdict names it so, with the numbers.
+  const UncertaintyOptions units;
+  const Eigen::Isometry3d answer = Eigen::Isometry3d::Identity();
+  LidarBasinCheck basin = EveryRestartCameBack(answer);
+  basin.restarts[0].T_base_lidar_end =
+      ApplyTransformUpdate(answer, Vector6d::Unit(3) * RadiansFromDegrees(0.5), TransformUpdate::kAboutSourcePoint);
+  const LidarErrorEstimate weak =
+      EstimateLidarError(answer, DeterminedAlongEachAxis(units, 0.1), &basin, {}, false, units);
+  EXPECT_EQ(weak.verdict, Verdict::kWeak);
+  EXPECT_EQ(weak.verdict_reason.rfind("weak along a tilt about the base camera's lateral axis (x) of 0.2", 0), 0u)
+      << weak.verdict_reason;
 }
 
 // A lower-cost restart end apart from the answer becomes the answer; the

@@ -184,7 +184,7 @@ YAML::Node ReportBasinCheck(Calibrator& calibrator, double offset_deg, bool adop
       scale["scale_sigma_percent"] = 100.0 * check.scale_sigma;
       const Vector6d end = TupleFromTransform(check.T_base_lidar_scale_moved);
       scale["T_base_lidar"] = Numbers(end.data(), 6);
-      scale["move"] = DescribeLocalUpdate(check.scale_move_d);
+      scale["move"] = DescribeDirectionInWords(check.scale_move_d) + " (" + DescribeLocalUpdate(check.scale_move_d) + ")";
       scale["evaluations"] = check.scale_evaluations;
       entry["scale_run"] = scale;
     }
@@ -298,11 +298,13 @@ void ReportErrorEstimate(const std::vector<LidarUncertainty>& estimates, const s
     }
     record_verdict(estimate.verdict, estimate.verdict_reason);
     entry["weakest_direction_1sigma_d"] = Numbers(estimate.weakest_direction.data(), 6);
+    entry["weakest_direction"] = DescribeDirectionInWords(estimate.weakest_direction);
     const Vector6d& s = estimate.sigma_tuple;
     spdlog::info("lidar {}: 1-sigma of the result x {:.2f} y {:.2f} z {:.2f} cm, roll {:.3f} pitch {:.3f} yaw {:.3f} "
-                 "deg (the image edges misaligned by {:.2f} px RMS); largest along {}; verdict: {}",
+                 "deg (the image edges misaligned by {:.2f} px RMS); largest along {} ({}); verdict: {}",
                  lidar.lidar, 100 * s[0], 100 * s[1], 100 * s[2], deg * s[3], deg * s[4], deg * s[5],
-                 estimate.sigma_px, DescribeLocalUpdate(estimate.weakest_direction), VerdictName(estimate.verdict));
+                 estimate.sigma_px, DescribeDirectionInWords(estimate.weakest_direction),
+                 DescribeLocalUpdate(estimate.weakest_direction), VerdictName(estimate.verdict));
   }
 }
 

@@ -174,4 +174,12 @@ double TupleMahalanobisSquared(const Eigen::Isometry3d& estimate, const Eigen::I
 // (translation along and rotation about the base axes).
 std::string DescribeLocalUpdate(const Vector6d& d);
 
+// The same displacement in words, in the base camera's axes (FORMAT.md: x
+// right, y down, z forward along the optical axis): its larger part (1 cm
+// counting as 0.1 deg) with the axes that carry it, and the other part when
+// it is at least a third as large, e.g. "a tilt about the base camera's
+// lateral axis (x) of 0.31 deg, coupled with a shift along its optical axis
+// (z) of 0.19 cm". Signs are left out: a sigma's direction has none.
+std::string DescribeDirectionInWords(const Vector6d& d);
+
 }  // namespace scenecal
