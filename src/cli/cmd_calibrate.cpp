@@ -412,7 +412,7 @@ void CheckAnswer(const CalibrateArguments& args, const CalibrationOptions& optio
       std::string scale_why;
       const double scale_sigma = TrajectoryScaleSigma(args, calibrator.Input().rig.trajectory_source,
                                                       options.motion_correction, &scale_why);
-      result->settings["trajectory_scale_sigma"] = fmt::format("{} % ({})", 100.0 * scale_sigma, scale_why);
+      result->settings["trajectory_scale_sigma"] = fmt::format("{:g} % ({})", 100.0 * scale_sigma, scale_why);
       (*extra)["basin_check"] = ReportBasinCheck(calibrator, args.basin_offset_deg, !args.keep_calibration_answer,
                                                  scale_sigma, result, &basin_checks);
     }
@@ -870,8 +870,9 @@ void AddAfterCalibrationOptions(CLI::App* command, CalibrateArguments* args) {
                     "the data then do not pin the extrinsic down, however small the local sigma; a run that ends "
                     "apart at a clearly lower cost becomes the answer; six runs of the last stage, each once and to "
                     "the middle stages' looser tolerance, a run stopping once back within a quarter of 1 cm / 0.1 deg "
-                    "of an answer where the same run rests: ~3 x its evaluations; skipped when --time-budget is spent "
-                    "by then; without it the verdict is at best weak: the local spread alone does not see a flat "
+                    "of an answer where the same run rests, and one more run with the trajectory's distances longer "
+                    "by its scale error (--odometry-scale-sigma): ~3 x its evaluations; skipped when --time-budget is "
+                    "spent by then; without it the verdict is at best weak: the local spread alone does not see a flat "
                     "valley)");
   command->add_flag("--keep-calibration-answer", args->keep_calibration_answer,
                     "Basin check: keep the calibration's own answer even where a restart ended apart from it (beyond "
