@@ -12,6 +12,7 @@ the images cannot see (docs/findings.md, "The drive's scale is invisible to the 
 import argparse
 import csv
 import math
+import signal
 import statistics
 import sys
 
@@ -60,6 +61,7 @@ def angles(r):  # rotation vector (rad) of a rotation matrix
 
 
 def main():
+    signal.signal(signal.SIGPIPE, signal.SIG_DFL)  # piped into head: stop quietly
     parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     parser.add_argument('exact')
     parser.add_argument('drifting')

@@ -888,7 +888,7 @@ void AddAfterCalibrationOptions(CLI::App* command, CalibrateArguments* args) {
                       "Basin check: the trajectory's scale error, 1 sigma in percent, whose effect enters the "
                       "result's sigma: the images cannot tell it from a shift of the lidar along the travel, so one "
                       "more run minimises the cost from the answer with every distance that much longer (a push-broom "
-                      "lidar moves 1.3-1.7 cm per 0.1 % on the simulated drives). auto: 0.5 for visual or lidar "
+                      "lidar moved 1.2-1.9 cm per 0.1 % on the simulated drives). auto: 0.5 for visual or lidar "
                       "odometry (rig.yaml's trajectory_source) or an unknown source in which the drift test found "
                       "drift, 0.05 for an INS or a scale given with --odometry-scale, 0 for exact poses or an unknown "
                       "source without drift")
