@@ -115,11 +115,12 @@ void PairCost::SetMotionCorrections(const std::vector<SwatheMotionCorrection>& c
 std::vector<Matrix6d> PairCost::UsedScenesInformation(const Eigen::Isometry3d& T_camera_lidar,
                                                       std::vector<double>* gradient_weights) const {
   std::vector<Matrix6d> per_scene(scenes_.size(), Matrix6d::Zero());
-  gradient_weights->assign(scenes_.size(), 0.0);
+  if (gradient_weights != nullptr) gradient_weights->assign(scenes_.size(), 0.0);
   tbb::parallel_for(std::size_t{0}, used_.size(), [&](std::size_t k) {
     ThrowIfInterrupted();
     const std::size_t s = used_[k];
-    per_scene[s] = scenes_[s].AlignmentInformation(T_camera_lidar, &(*gradient_weights)[s]);
+    per_scene[s] = scenes_[s].AlignmentInformation(
+        T_camera_lidar, gradient_weights != nullptr ? &(*gradient_weights)[s] : nullptr);
   });
   return per_scene;
 }
@@ -139,8 +140,7 @@ Matrix6d PairCost::AlignmentInformation(const Eigen::Isometry3d& T_camera_lidar,
 
 InformativeChoice PairCost::KeepMostInformative(const Eigen::Isometry3d& T_camera_lidar, int count,
                                                 const InformativeChoiceOptions& options) {
-  std::vector<double> weights;
-  const std::vector<Matrix6d> per_scene = UsedScenesInformation(T_camera_lidar, &weights);
+  const std::vector<Matrix6d> per_scene = UsedScenesInformation(T_camera_lidar);
   // One candidate per camera frame: its swathes together.
   std::map<TimeUs, std::size_t> frame_of_time;
   for (const SceneSwathe& scene : scenes_) frame_of_time.emplace(scene.ImageTime(), 0);

@@ -123,9 +123,9 @@ class PairCost {
 
  private:
   // Each scene's SceneSwathe::AlignmentInformation at T_camera_lidar (zero for
-  // a scene not used), and in *gradient_weights its gradient weight; by scene index.
+  // a scene not used), and in *gradient_weights (when given) its gradient weight; by scene index.
   std::vector<Matrix6d> UsedScenesInformation(const Eigen::Isometry3d& T_camera_lidar,
-                                              std::vector<double>* gradient_weights) const;
+                                              std::vector<double>* gradient_weights = nullptr) const;
   double SceneCost(std::size_t scene, const Eigen::Isometry3d& T_camera_lidar, std::size_t* projected) const;
   // SceneCost plus, when gradient is given, the scene's gradient (EvaluateWithGradient).
   double SceneCostAndGradient(std::size_t scene, const Eigen::Isometry3d& T_camera_lidar, TransformUpdate update,
