@@ -1199,6 +1199,39 @@ TEST_F(CalibrateOnSimulation, CliAutoSettingSolvesADriftingDriveAgainFromThePush
   // rig.yaml's guess is the truth moved by 5 cm and 2 deg (SmallSimulationOptions).
   EXPECT_NE(text.find("lms_rear initial guess error: translation 0.0500 m, rotation 2.000 deg"), std::string::npos)
       << text;
+  // The push-broom answer is the answer without the drift model: no run of the basin check needed for it.
+  EXPECT_FALSE(result["basin_check"]["lms_rear"]["without_drift_model_run"].IsDefined());
+
+  // The same drive with rig.yaml naming visual odometry: push-broom-drifting straight away, no push-broom answer,
+  // so the basin check measures how far the drift model moves the answer, and the sigma carries that offset.
+  rig.insert(source, "trajectory_source: visual-odometry\n");
+  testing::WriteFile(drifting / "rig.yaml", rig);
+  const fs::path given_output = root_ / "given_drifting.yaml";
+  ASSERT_EQ(RunCli("calibrate " + drifting.string() + " --output " + given_output.string() +
+                       " --scenes 10 --lbfgs-iterations 3 --stages 1 --alternations 2",
+                   &text),
+            0)
+      << text;
+  const YAML::Node given = YAML::LoadFile(given_output.string());
+  EXPECT_EQ(given["options"]["setting"].as<std::string>(), "push-broom-drifting");
+  EXPECT_FALSE(given["settings"]["drift_test"].IsDefined());
+  const YAML::Node model_run = given["basin_check"]["lms_rear"]["without_drift_model_run"];
+  ASSERT_TRUE(model_run.IsMap()) << text;
+  EXPECT_EQ(model_run["T_base_lidar"].size(), 6u);
+  EXPECT_GT(model_run["evaluations"].as<int>(), 0);
+  EXPECT_NE(text.find("with the drift corrections removed the answer moved"), std::string::npos) << text;
+  const YAML::Node entry = given["uncertainty"]["lms_rear"];
+  ASSERT_TRUE(entry.IsMap()) << text;
+  EXPECT_NE(entry["sigma_method"].as<std::string>().find(
+                "+ the offset of the answer with the drift corrections removed (basin_check.lms_rear."
+                "without_drift_model_run)"),
+            std::string::npos)
+      << entry["sigma_method"];
+  EXPECT_EQ(entry["other_model_answer"].size(), 6u);
+  if (entry["verdict_reason"].IsDefined()) {
+    EXPECT_EQ(entry["verdict_reason"].as<std::string>().find("was not measured"), std::string::npos)
+        << entry["verdict_reason"];
+  }
 }
 
 // The held-out drift test tells a drift that follows the drive (here the same
@@ -1519,6 +1552,78 @@ TEST_F(CalibrateOnSimulation, BasinCheckScaleRunMovesTheAnswerAlongTheTravel) {
   EXPECT_GT(ratio, 1.5);
   EXPECT_LT(ratio, 2.5);
   EXPECT_GT(twice[0].scale_move_d.head<3>().dot(move.head<3>()), 0.0);  // the same way
+}
+
+// The run with the drift corrections removed measures how far a drift model
+// moves the answer. On an exact drive, a model that lengthens every swathe by
+// 0.5 % moves the answer by the scale run's move; from that moved answer, the
+// run without the corrections must come back by the same move.
+TEST_F(CalibrateOnSimulation, BasinCheckRunWithoutTheDriftModelUndoesTheModelsMove) {
+  const io::Dataset dataset = io::OpenDataset(DatasetPath());
+  CalibrationOptions options;
+  options.scheme = CalibrationScheme::kJoint;
+  options.scenes.scenes_per_camera = 8;
+  options.lower_solver = LowerSolver::kLbfgs;
+  options.cost.histogram.binning = Binning::kBSpline;
+  const CalibrationInput input = Load(dataset, options.scenes);
+  const Eigen::Isometry3d truth = dataset.ground_truth->T_base_lidar.at("lms_rear");
+  Calibrator calibrator(input, options);
+  ASSERT_EQ(calibrator.Status(), CalibrationStatus::kSuccess) << calibrator.Why();
+  const auto result_at = [](const Eigen::Isometry3d& T_base_lidar) {
+    CalibrationResult result;
+    result.lidars.push_back({"lms_rear", T_base_lidar, std::nullopt, std::nullopt});
+    return result;
+  };
+
+  // No correction in any swathe: the model moved nothing, and no run is spent on it.
+  BasinCheckOptions check_options;
+  EXPECT_FALSE(check_options.without_drift_model);  // not measured unless asked
+  check_options.without_drift_model = true;
+  check_options.scale_sigma = 0.005;
+  const std::vector<LidarBasinCheck> plain = calibrator.CheckBasins(result_at(truth), check_options);
+  ASSERT_EQ(plain.size(), 1u);
+  ASSERT_TRUE(plain[0].drift_model_measured);
+  EXPECT_EQ(plain[0].drift_model_evaluations, 0);
+  EXPECT_TRUE(plain[0].drift_model_move_d.isZero());
+  ASSERT_TRUE(plain[0].scale_measured);
+  const Vector6d scale_move = plain[0].scale_move_d;
+  ASSERT_GT(scale_move.head<3>().norm(), 0.005);
+
+  // The "model": every swathe 0.5 % longer; the answer where the scale run ended.
+  const Eigen::Isometry3d modelled = plain[0].T_base_lidar_scale_moved;
+  std::vector<PairCost*> pairs = calibrator.PairsAt("lms_rear", modelled, Binning::kBSpline);
+  ASSERT_FALSE(pairs.empty());
+  for (PairCost* pair : pairs) {
+    std::vector<SwatheMotionCorrection> corrections = pair->MotionCorrections();
+    for (SwatheMotionCorrection& correction : corrections) correction.scale = 0.005;
+    pair->SetMotionCorrections(corrections);
+  }
+  const auto cost_at_modelled = [&] {
+    const std::vector<PairCost*> at = calibrator.PairsAt("lms_rear", modelled, Binning::kBSpline);
+    return EvaluateJoint(std::vector<const PairCost*>(at.begin(), at.end()), modelled);
+  };
+  const double cost_before = cost_at_modelled();
+  check_options.scale_sigma = 0.0;
+  const std::vector<LidarBasinCheck> checks = calibrator.CheckBasins(result_at(modelled), check_options);
+  ASSERT_EQ(checks.size(), 1u);
+  const LidarBasinCheck& check = checks[0];
+  ASSERT_TRUE(check.drift_model_measured);
+  EXPECT_FALSE(check.scale_measured);
+  EXPECT_GT(check.drift_model_evaluations, 0);
+  EXPECT_LT((ApplyTransformUpdate(modelled, check.drift_model_move_d, TransformUpdate::kAboutSourcePoint).matrix() -
+             check.T_base_lidar_without_drift_model.matrix())
+                .cwiseAbs()
+                .maxCoeff(),
+            1e-9);
+  std::cout << "[ measured ] the scale model's move " << DescribeLocalUpdate(scale_move)
+            << "; without the model, back by " << DescribeLocalUpdate(check.drift_model_move_d) << "\n";
+  // Back by the model's move: the same length within a third, the other way.
+  const double back = check.drift_model_move_d.head<3>().norm() / scale_move.head<3>().norm();
+  EXPECT_GT(back, 0.67);
+  EXPECT_LT(back, 1.5);
+  EXPECT_LT(check.drift_model_move_d.head<3>().dot(scale_move.head<3>()),
+            -0.8 * check.drift_model_move_d.head<3>().norm() * scale_move.head<3>().norm());
+  EXPECT_DOUBLE_EQ(cost_at_modelled(), cost_before);  // the swathes' corrections restored
 }
 
 TEST_F(CalibrateOnSimulation, BasinCheckRestartsAboutEachAxisAndComparesTheEnds) {

@@ -413,8 +413,11 @@ void CheckAnswer(const CalibrateArguments& args, const CalibrationOptions& optio
       const double scale_sigma = TrajectoryScaleSigma(args, calibrator.Input().rig.trajectory_source,
                                                       options.motion_correction, &scale_why);
       result->settings["trajectory_scale_sigma"] = fmt::format("{:g} % ({})", 100.0 * scale_sigma, scale_why);
+      // With the drift model and no answer solved without it (trajectory_source named drifting odometry, or an
+      // explicit setting), the check measures how far the model moves the answer: the sigma needs that offset.
+      const bool without_drift_model = options.motion_correction && other_answers.by_lidar.empty();
       (*extra)["basin_check"] = ReportBasinCheck(calibrator, args.basin_offset_deg, !args.keep_calibration_answer,
-                                                 scale_sigma, result, &basin_checks);
+                                                 scale_sigma, without_drift_model, result, &basin_checks);
     }
   }
   if (!args.no_uncertainty && budget_spent()) {
@@ -870,8 +873,10 @@ void AddAfterCalibrationOptions(CLI::App* command, CalibrateArguments* args) {
                     "the data then do not pin the extrinsic down, however small the local sigma; a run that ends "
                     "apart at a clearly lower cost becomes the answer; six runs of the last stage, each once and to "
                     "the middle stages' looser tolerance, a run stopping once back within a quarter of 1 cm / 0.1 deg "
-                    "of an answer where the same run rests, and one more run with the trajectory's distances longer "
-                    "by its scale error (--odometry-scale-sigma): ~3 x its evaluations; skipped when --time-budget is "
+                    "of an answer where the same run rests, one more run with the trajectory's distances longer by "
+                    "its scale error (--odometry-scale-sigma), and with the drift model on and no answer solved "
+                    "without it, one with the drift corrections removed (how far the model moves the answer enters "
+                    "the sigma): ~3 x its evaluations; skipped when --time-budget is "
                     "spent by then; without it the verdict is at best weak: the local spread alone does not see a flat "
                     "valley)");
   command->add_flag("--keep-calibration-answer", args->keep_calibration_answer,

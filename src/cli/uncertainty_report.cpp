@@ -66,6 +66,7 @@ YAML::Node ReportUncertainty(Calibrator& calibrator, CalibrationResult* result,
       directions.push_back(item);
     }
     entry["directions"] = directions;
+    entry["evaluations"] = estimate.evaluations;
     if (estimate.determined) {
       // Not FORMAT.md's `sigma`: this is the spread within the basin the
       // optimiser ended in; ReportErrorEstimate adds what it misses.
@@ -96,18 +97,21 @@ YAML::Node ReportUncertainty(Calibrator& calibrator, CalibrationResult* result,
 }
 
 YAML::Node ReportBasinCheck(Calibrator& calibrator, double offset_deg, bool adopt, double scale_sigma,
-                            CalibrationResult* result, std::vector<LidarBasinCheck>* checks_out) {
+                            bool without_drift_model, CalibrationResult* result,
+                            std::vector<LidarBasinCheck>* checks_out) {
   const auto start = std::chrono::steady_clock::now();
   BasinCheckOptions check_options;
   check_options.offset_rad = RadiansFromDegrees(offset_deg);
   check_options.scale_sigma = scale_sigma;
+  check_options.without_drift_model = without_drift_model;
   spdlog::info("basin check: minimising the joint cost again from the answer turned +-{} deg about each base axis "
-               "(6 runs per lidar{}; --no-basin-check skips it)",
+               "(6 runs per lidar{}{}; --no-basin-check skips it)",
                offset_deg,
-               scale_sigma > 0.0 ? fmt::format(", and once from the answer with the trajectory's distances {:.2f} % "
+               scale_sigma > 0.0 ? fmt::format(", once from the answer with the trajectory's distances {:.2f} % "
                                                "longer",
                                                100.0 * scale_sigma)
-                                 : "");
+                                 : "",
+               without_drift_model ? ", once from the answer with the drift corrections removed" : "");
   *checks_out = calibrator.CheckBasins(*result, check_options);
   if (adopt) calibrator.AdoptBetterRestarts(check_options, result, checks_out);
   const std::vector<LidarBasinCheck>& checks = *checks_out;
@@ -169,6 +173,7 @@ YAML::Node ReportBasinCheck(Calibrator& calibrator, double offset_deg, bool adop
       item["rotation_apart_deg"] = restart.rotation_apart_rad * deg;
       item["cost"] = restart.cost_end;
       item["cost_drop_standard_error"] = restart.cost_drop_standard_error;
+      item["evaluations"] = restart.evaluations;
       const Vector6d end = TupleFromTransform(restart.T_base_lidar_end);
       item["T_base_lidar"] = Numbers(end.data(), 6);
       restarts.push_back(item);
@@ -187,6 +192,16 @@ YAML::Node ReportBasinCheck(Calibrator& calibrator, double offset_deg, bool adop
       scale["move"] = DescribeDirectionInWords(check.scale_move_d) + " (" + DescribeLocalUpdate(check.scale_move_d) + ")";
       scale["evaluations"] = check.scale_evaluations;
       entry["scale_run"] = scale;
+    }
+    if (check.drift_model_measured) {
+      // The run with the drift corrections removed: the answer without the drift model, and how far the model moves it.
+      YAML::Node run(YAML::NodeType::Map);
+      const Vector6d end = TupleFromTransform(check.T_base_lidar_without_drift_model);
+      run["T_base_lidar"] = Numbers(end.data(), 6);
+      run["move"] = DescribeDirectionInWords(check.drift_model_move_d) + " (" +
+                    DescribeLocalUpdate(check.drift_model_move_d) + ")";
+      run["evaluations"] = check.drift_model_evaluations;
+      entry["without_drift_model_run"] = run;
     }
     entry["seconds"] = check.seconds;
     node[check.lidar] = entry;
@@ -243,8 +258,15 @@ void ReportErrorEstimate(const std::vector<LidarUncertainty>& estimates, const s
       if (candidate.lidar == lidar.lidar) check = &candidate;
     }
     std::vector<Eigen::Isometry3d> others;
+    std::string others_are = other_answers.are;
     if (const auto other = other_answers.by_lidar.find(lidar.lidar); other != other_answers.by_lidar.end()) {
       others.push_back(other->second);
+    } else if (check != nullptr && check->drift_model_measured) {
+      // The basin check's run without the drift corrections, carried to a restart's end if one became the answer.
+      others.push_back(ApplyTransformUpdate(lidar.T_base_lidar, check->drift_model_move_d,
+                                            TransformUpdate::kAboutSourcePoint));
+      others_are = fmt::format("the answer with the drift corrections removed (basin_check.{}.without_drift_model_run)",
+                               lidar.lidar);
     }
     const LidarErrorEstimate estimate =
         EstimateLidarError(lidar.T_base_lidar, estimates[i], check, others, trajectory_drifts, units, error_options);
@@ -277,7 +299,7 @@ void ReportErrorEstimate(const std::vector<LidarUncertainty>& estimates, const s
         "every scene){}; shares of its trace: local {:.2f}, basin {:.2f}, other model {:.2f}, floor {:.2f}, "
         "scale {:.2f}",
         check != nullptr && check->checked ? "" : " (no basin check ran)",
-        others.empty() ? "" : " + the offset of " + other_answers.are, error_options.alignment_floor_px,
+        others.empty() ? "" : " + the offset of " + others_are, error_options.alignment_floor_px,
         check != nullptr && check->scale_measured
             ? fmt::format(" + the answer's move under a {:.2f} % scale error of the trajectory (basin_check.{}."
                           "scale_run)",
@@ -294,7 +316,7 @@ void ReportErrorEstimate(const std::vector<LidarUncertainty>& estimates, const s
       // [x y z roll pitch yaw] (m, rad), as T_base_lidar: where the other model ended.
       const Vector6d other_tuple = TupleFromTransform(others.front());
       entry["other_model_answer"] = Numbers(other_tuple.data(), 6);
-      entry["other_model_answer_is"] = other_answers.are;
+      entry["other_model_answer_is"] = others_are;
     }
     record_verdict(estimate.verdict, estimate.verdict_reason);
     entry["weakest_direction_1sigma_d"] = Numbers(estimate.weakest_direction.data(), 6);

@@ -38,9 +38,13 @@ YAML::Node ReportUncertainty(Calibrator& calibrator, CalibrationResult* result,
 // *checks: the checks themselves, per lidar of the result.
 // scale_sigma: the trajectory's scale error (1 sigma, fraction; 0: not
 // measured), whose effect on the answer the check measures with one more run
-// (BasinCheckOptions::scale_sigma).
+// (BasinCheckOptions::scale_sigma). without_drift_model: one more run with the
+// drift corrections removed (BasinCheckOptions::without_drift_model), whose
+// end ReportErrorEstimate takes as the answer under the other model when no
+// other answer was solved for.
 YAML::Node ReportBasinCheck(Calibrator& calibrator, double offset_deg, bool adopt, double scale_sigma,
-                            CalibrationResult* result, std::vector<LidarBasinCheck>* checks);
+                            bool without_drift_model, CalibrationResult* result,
+                            std::vector<LidarBasinCheck>* checks);
 
 // Per lidar, its answer under another model that the final answer replaced,
 // and what that answer was (for the result's sigma_method).

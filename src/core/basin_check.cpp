@@ -206,34 +206,59 @@ LidarBasinCheck CheckLidarBasin(const std::vector<PairCost*>& owned, const Lidar
       check.restarts.push_back(restart);
     }
   }
-  if (check_options.scale_sigma > 0.0) {
-    // Every swathe's steps lengthened by scale_sigma on top of its own drift
-    // correction, the answer minimised again from itself, then the
-    // corrections as they were.
+  // The same run from the answer with every swathe's drift corrections
+  // changed by `change`, then the corrections as they were. Returns where it ended.
+  const auto run_with_corrections = [&](const auto& change, int* evaluations) {
     std::vector<std::vector<SwatheMotionCorrection>> saved;
     for (PairCost* pair : owned) {
       saved.push_back(pair->MotionCorrections());
-      std::vector<SwatheMotionCorrection> moved = saved.back();
-      for (SwatheMotionCorrection& correction : moved) correction.scale += check_options.scale_sigma;
-      pair->SetMotionCorrections(moved);
+      std::vector<SwatheMotionCorrection> changed = saved.back();
+      for (SwatheMotionCorrection& correction : changed) change(&correction);
+      pair->SetMotionCorrections(changed);
     }
     Eigen::Isometry3d T = answer.T_base_lidar;
     OptimisationReport report;
     MinimiseWithLowerSolver(restart_options, stages, nelder_mead, cost, cost_with_gradient, prepare_at, &T, &report);
     for (std::size_t p = 0; p < owned.size(); ++p) owned[p]->SetMotionCorrections(saved[p]);
     prepare_at(sharp, answer.T_base_lidar);
+    *evaluations = report.evaluations;
+    check.evaluations += report.evaluations;
+    return T;
+  };
+  const auto moved_text = [&](const Eigen::Isometry3d& T) {
+    double translation_m = 0.0, rotation_rad = 0.0;
+    MeasureApart(T, answer.T_base_lidar, &translation_m, &rotation_rad);
+    return fmt::format("{:.2f} cm, {:.3f} deg", 100.0 * translation_m, DegreesFromRadians(rotation_rad));
+  };
+  if (check_options.scale_sigma > 0.0) {
+    // Every swathe's steps lengthened by scale_sigma on top of its own drift correction.
+    const Eigen::Isometry3d T = run_with_corrections(
+        [&](SwatheMotionCorrection* correction) { correction->scale += check_options.scale_sigma; },
+        &check.scale_evaluations);
     check.scale_measured = true;
     check.scale_sigma = check_options.scale_sigma;
     check.T_base_lidar_scale_moved = T;
     check.scale_move_d = TransformUpdateBetween(answer.T_base_lidar, T, TransformUpdate::kAboutSourcePoint);
-    check.scale_evaluations = report.evaluations;
-    check.evaluations += report.evaluations;
-    double translation_m = 0.0, rotation_rad = 0.0;
-    MeasureApart(T, answer.T_base_lidar, &translation_m, &rotation_rad);
-    say(fmt::format("basin check {}: with the trajectory's distances {:.2f} % longer the answer moved {:.2f} cm, "
-                    "{:.3f} deg",
-                    answer.lidar, 100.0 * check_options.scale_sigma, 100.0 * translation_m,
-                    DegreesFromRadians(rotation_rad)));
+    say(fmt::format("basin check {}: with the trajectory's distances {:.2f} % longer the answer moved {}",
+                    answer.lidar, 100.0 * check_options.scale_sigma, moved_text(T)));
+  }
+  if (check_options.without_drift_model) {
+    const bool any_correction = std::any_of(owned.begin(), owned.end(), [](const PairCost* pair) {
+      const std::vector<SwatheMotionCorrection> corrections = pair->MotionCorrections();
+      return std::any_of(corrections.begin(), corrections.end(),
+                         [](const SwatheMotionCorrection& correction) { return !correction.IsZero(); });
+    });
+    // No correction at all: the model moved nothing, and the run would be the one from the answer.
+    const Eigen::Isometry3d T =
+        any_correction ? run_with_corrections(
+                             [](SwatheMotionCorrection* correction) { *correction = SwatheMotionCorrection{}; },
+                             &check.drift_model_evaluations)
+                       : answer.T_base_lidar;
+    check.drift_model_measured = true;
+    check.T_base_lidar_without_drift_model = T;
+    check.drift_model_move_d = TransformUpdateBetween(answer.T_base_lidar, T, TransformUpdate::kAboutSourcePoint);
+    say(fmt::format("basin check {}: with the drift corrections removed the answer moved {}", answer.lidar,
+                    moved_text(T)));
   }
   check.seconds = std::chrono::duration<double>(Clock::now() - start).count();
   return check;

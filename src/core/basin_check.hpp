@@ -59,6 +59,13 @@ struct BasinCheckOptions {
   // swathe's steps lengthened by this fraction, and its end is where a
   // 1-sigma scale error moves the answer.
   double scale_sigma = 0.0;
+  // With a drift model in use (CalibrationOptions::motion_correction): the
+  // same run once more from the answer with every swathe's drift correction
+  // removed. Its end is the answer without the model, so how far the model
+  // moves the answer is measured where no such answer was solved for (a
+  // trajectory_source that names drifting odometry skips the solve without
+  // the model). With no correction at all, the end is the answer itself.
+  bool without_drift_model = false;
 
   bool IsValid(std::string* why = nullptr) const;
   // Whether an end this far from the answer agrees with it.
@@ -107,6 +114,11 @@ struct LidarBasinCheck {
   // (TransformUpdate::kAboutSourcePoint): kept when a restart is adopted.
   Vector6d scale_move_d = Vector6d::Zero();
   int scale_evaluations = 0;
+  // The run with the drift corrections removed (BasinCheckOptions::without_drift_model), when it ran.
+  bool drift_model_measured = false;
+  Eigen::Isometry3d T_base_lidar_without_drift_model = Eigen::Isometry3d::Identity();  // where that run ended
+  Vector6d drift_model_move_d = Vector6d::Zero();  // from that end to the answer it started at, as scale_move_d
+  int drift_model_evaluations = 0;
   int evaluations = 0;
   double seconds = 0.0;
   // Set when a restart's end replaced the answer (AdoptRestart): its index in

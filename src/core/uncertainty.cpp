@@ -432,8 +432,8 @@ LidarErrorEstimate EstimateLidarError(const Eigen::Isometry3d& T_base_lidar, con
   } else if (trajectory_drifts && other_answers.empty()) {
     estimate.verdict = Verdict::kUnreliable;
     estimate.verdict_reason =
-        "the trajectory drifts within the swathes, and how far its model moves the answer was not measured (it is "
-        "with --setting auto); the sigma does not include the drift";
+        "the trajectory drifts within the swathes, and how far its model moves the answer was not measured (the "
+        "basin check measures it); the sigma does not include the drift";
   } else if (trajectory_drifts && !within) {
     estimate.verdict = Verdict::kUnreliable;
     const bool scale_measured = basin != nullptr && basin->scale_measured;

@@ -96,7 +96,8 @@ LidarUncertainty EstimateLidarUncertainty(const std::vector<const PairCost*>& pa
 //     valley);
 //   - for each other answer of the same data under another model (auto's
 //     push-broom answer before the drift model was added; the one-sided
-//     swathes' answer before the centred final stage), its offset's outer
+//     swathes' answer before the centred final stage; the basin check's run
+//     with the drift corrections removed), its offset's outer
 //     product plus the local covariance scaled so that the offset's squared
 //     Mahalanobis length is spread over its six directions: the answer moved
 //     that much with the model, so what the final model leaves can move it as
