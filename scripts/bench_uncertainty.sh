@@ -6,7 +6,8 @@
 #
 # Runs: PRESETS (default "robotcar trinocular spin3d") x ODOMETRY ("exact drifting") x WORLDS ("1 2 3") x STARTS
 # ("1 2"), each start PERTURB_T m / PERTURB_R deg (0.1, 3) from the truth. rig.yaml's trajectory_source is removed
-# so that the default decides about drift from the data. Per lidar and run: the error, the Mahalanobis distance of
+# so that the default decides about drift from the data, unless SOURCE=given (then the default follows rig.yaml, and
+# the basin check measures the drift model's move; use another OUT_DIR: the simulated data differ). Per lidar and run: the error, the Mahalanobis distance of
 # the error under the result's covariance (6 dof: 95 % within 3.55), 2 sigma over the error per axis, the
 # verdict, the uncertainty's time (local estimate + basin check) against the calibration's, and the error in
 # pixels (the RMS misalignment it causes normal to the image edges).
@@ -26,6 +27,8 @@ worlds=${WORLDS:-"1 2 3"}
 starts=${STARTS:-"1 2"}
 perturb_t=${PERTURB_T:-0.1}
 perturb_r=${PERTURB_R:-3}
+source_mode=${SOURCE:-unknown}
+case "$source_mode" in unknown | given) ;; *) echo "bench_uncertainty: SOURCE must be unknown or given" >&2; exit 2 ;; esac
 
 source scripts/bench_simulate.sh
 [[ -x "$scenecal" ]] || { echo "bench_uncertainty: $scenecal not built (scripts/build.sh)" >&2; exit 2; }
@@ -33,12 +36,19 @@ mkdir -p "$out/data" "$out/runs"
 results="$out/results.tsv"
 [[ ${TABLE_ONLY:-0} == 1 ]] && presets=""
 [[ ${TABLE_ONLY:-0} == 1 || -f $results ]] ||
-  printf 'preset\todometry\tworld\tstart\tlidar\ttranslation_m\trotation_deg\tmahalanobis\tratios\tverdict\tcalibrate_s\tuncertainty_s\terror_px\n' >"$results"
+  printf 'preset\todometry\tworld\tstart\tlidar\ttranslation_m\trotation_deg\tmahalanobis\tratios\tverdict\tcalibrate_s\tuncertainty_s\terror_px\tsource\n' >"$results"
 
 for preset in $presets; do
   for odometry in $odometries; do
     for world in $worlds; do
-      data=$(simulate_once bench_uncertainty "$preset" "$odometry" "$world" unknown)
+      data=$(simulate_once bench_uncertainty "$preset" "$odometry" "$world" "$source_mode")
+      has_source=unknown
+      grep -q '^trajectory_source:' "$data/rig.yaml" && has_source=given
+      [[ $has_source == "$source_mode" ]] || {
+        echo "bench_uncertainty: $data was simulated with SOURCE=$has_source, this run has SOURCE=$source_mode;" \
+          "use another OUT_DIR" >&2
+        exit 2
+      }
       for start in $starts; do
         tag="${preset}_${odometry}_w${world}_${start}"
         grep -q "^${preset}	${odometry}	${world}	${start}	" "$results" && continue  # done in an earlier run
@@ -47,9 +57,10 @@ for preset in $presets; do
           --perturb-translation "$perturb_t" --perturb-rotation "$perturb_r" \
           >"$out/runs/$tag.txt" 2>"$out/runs/$tag.log" || status=$?
         [[ $status == 0 ]] || { echo "bench_uncertainty: $tag failed (exit $status), see $out/runs/$tag.log" >&2; exit 1; }
-        python3 - "$preset" "$odometry" "$world" "$start" "$out/runs/$tag" "$data/ground_truth.yaml" >>"$results" <<'PY'
+        python3 - "$preset" "$odometry" "$world" "$start" "$out/runs/$tag" "$data/ground_truth.yaml" "$source_mode" \
+          >>"$results" <<'PY'
 import math, re, sys, yaml
-preset, odometry, world, start, run, truth_file = sys.argv[1:7]
+preset, odometry, world, start, run, truth_file, source = sys.argv[1:8]
 result = yaml.safe_load(open(run + '.yaml'))
 truth = yaml.safe_load(open(truth_file))['lidars']
 timings = result.get('timings_s', {})
@@ -74,7 +85,7 @@ for name, lidar in result['lidars'].items():
             t_error, r_error = [float(x) for x in re.findall(r'[-+]?\d+\.\d+', line.split('error:')[1])[:2]]
     print('\t'.join([preset, odometry, world, start, name, f'{t_error:.5f}', f'{r_error:.4f}',
                      f'{distance.get(name, float("inf")):.3f}', ratios, verdict, f'{calibrate_s:.1f}',
-                     f'{uncertainty_s:.1f}', f'{pixels.get(name, float("nan")):.3f}']))
+                     f'{uncertainty_s:.1f}', f'{pixels.get(name, float("nan")):.3f}', source]))
 PY
         tail -n1 "$results" >&2
       done
@@ -102,11 +113,12 @@ def line(label, rs):
             + ', '.join(f'{k} {v}' for k, v in sorted(verdicts.items()))
             + f' | {good_ok} of {len(good)} | {share:.2f} |')
 groups = {}
-for r in rows: groups.setdefault((r['preset'], r['odometry']), []).append(r)
+for r in rows: groups.setdefault((r['preset'], r['odometry'], r.get('source') or 'unknown'), []).append(r)
 lines = ['| data | lidar runs | error within the 95 % ellipsoid | median 2 sigma / abs(error), per axis | '
          'median error (and in pixels normal to the image edges) | verdicts | `good` within 1 cm / 0.2 deg | uncertainty time / calibration time (median) |',
          '|---|---|---|---|---|---|---|---|']
-for (preset, odometry), rs in groups.items(): lines.append(line(f'{preset}, {odometry} odometry', rs))
+for (preset, odometry, source), rs in groups.items():
+    lines.append(line(f'{preset}, {odometry} odometry' + (', trajectory_source given' if source == 'given' else ''), rs))
 if rows: lines.append(line('all', rows))
 table = '\n'.join(lines) + '\n'
 open(sys.argv[2], 'w').write(table)

@@ -54,7 +54,7 @@ struct GradientSolverOptions {
   // it into the last stage's reach, and their tails crept along the flat
   // valley. Not the first stage: from far starts its slow descent is what
   // keeps the basin wide (cut short, a start 30 cm / 10 deg off ran away;
-  // BENCHMARK.md, "End-to-end time").
+  // docs/findings.md, "The smooth cost is rough below a thousandth of a step").
   double coarse_function_tolerance = 1e-8;
   double MiddleStageFunctionTolerance() const { return std::max(function_tolerance, coarse_function_tolerance); }
   double gradient_tolerance = 1e-10;
