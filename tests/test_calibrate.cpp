@@ -69,6 +69,17 @@ class CalibrateOnSimulation : public ::testing::Test {
     return rig;
   }
 
+  // Joint, L-BFGS on the smooth (B-spline) cost, `scenes` frames per camera: the basin check's runs as the push-broom
+  // presets make them.
+  static CalibrationOptions SmoothJointOptions(int scenes) {
+    CalibrationOptions options;
+    options.scheme = CalibrationScheme::kJoint;
+    options.scenes.scenes_per_camera = scenes;
+    options.lower_solver = LowerSolver::kLbfgs;
+    options.cost.histogram.binning = Binning::kBSpline;
+    return options;
+  }
+
   static CalibrationInput Load(const io::Dataset& dataset, const SceneOptions& scene_options) {
     return test::LoadCalibrationInput(dataset, scene_options);
   }
@@ -1505,11 +1516,7 @@ TEST_F(CalibrateOnSimulation, RecommendedPushBroomSettingComesBackFromThreeDegre
 // about twice as far for twice the scale; the swathes are as they were after.
 TEST_F(CalibrateOnSimulation, BasinCheckScaleRunMovesTheAnswerAlongTheTravel) {
   const io::Dataset dataset = io::OpenDataset(DatasetPath());
-  CalibrationOptions options;
-  options.scheme = CalibrationScheme::kJoint;
-  options.scenes.scenes_per_camera = 8;
-  options.lower_solver = LowerSolver::kLbfgs;
-  options.cost.histogram.binning = Binning::kBSpline;
+  const CalibrationOptions options = SmoothJointOptions(8);
   const CalibrationInput input = Load(dataset, options.scenes);
   const Eigen::Isometry3d truth = dataset.ground_truth->T_base_lidar.at("lms_rear");
   CalibrationResult result;
@@ -1560,11 +1567,7 @@ TEST_F(CalibrateOnSimulation, BasinCheckScaleRunMovesTheAnswerAlongTheTravel) {
 // run without the corrections must come back by the same move.
 TEST_F(CalibrateOnSimulation, BasinCheckRunWithoutTheDriftModelUndoesTheModelsMove) {
   const io::Dataset dataset = io::OpenDataset(DatasetPath());
-  CalibrationOptions options;
-  options.scheme = CalibrationScheme::kJoint;
-  options.scenes.scenes_per_camera = 8;
-  options.lower_solver = LowerSolver::kLbfgs;
-  options.cost.histogram.binning = Binning::kBSpline;
+  const CalibrationOptions options = SmoothJointOptions(8);
   const CalibrationInput input = Load(dataset, options.scenes);
   const Eigen::Isometry3d truth = dataset.ground_truth->T_base_lidar.at("lms_rear");
   Calibrator calibrator(input, options);
