@@ -1419,15 +1419,11 @@ TEST_F(CalibrateOnSimulation, MotionCorrectionInAltIsSharedByTheLidars) {
 TEST_F(CalibrateOnSimulation, CostMachineryIsUnbiasedWhenReflectanceFollowsTheImage) {
   const io::Dataset dataset = io::OpenDataset(DatasetPath());
   const Eigen::Isometry3d truth = dataset.ground_truth->T_base_lidar.at("lms_rear");
-  CalibrationOptions options;
-  options.scheme = CalibrationScheme::kJoint;
-  options.lower_solver = LowerSolver::kLbfgs;
-  options.cost.histogram.binning = Binning::kBSpline;
-  options.cost.swathe.refresh_border_px = 18.0;  // the fixed point set L-BFGS needs (3.75 % of the width)
-  options.gradient.initial_step_rotation_rad = kMeasuredStepRotationRad;
   // Few scenes, far apart: each scan lies in one left-camera swathe only, so
   // it can be given the intensity of that one image.
-  options.scenes.scenes_per_camera = 5;
+  CalibrationOptions options = SmoothJointOptions(5);
+  options.cost.swathe.refresh_border_px = 18.0;  // the fixed point set L-BFGS needs (3.75 % of the width)
+  options.gradient.initial_step_rotation_rad = kMeasuredStepRotationRad;
   CalibrationInput input = Load(dataset, options.scenes);
   const std::string camera_name = input.rig.base_frame;
   std::erase_if(input.selection.scenes, [&](const Scene& scene) { return scene.camera != camera_name; });
