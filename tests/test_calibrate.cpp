@@ -40,6 +40,11 @@ namespace {
 // with; the calibration's default is 1 deg (0.01745 rad).
 constexpr double kMeasuredStepRotationRad = 0.02;
 
+// The push-broom preset's whole schedule, given where a test of the drift
+// correction counts its stages on a drive of a few frames (where the preset's
+// own schedule would lose its wide stages).
+const std::string kPushBroomStages = "1:0.02:1,1:0.004:2,0.3:0.0015:1,0.1:0:1";
+
 namespace fs = std::filesystem;
 
 class CalibrateOnSimulation : public ::testing::Test {
@@ -488,8 +493,12 @@ TEST_F(CalibrateOnSimulation, CliSettingFillsTheOptionsNotGivenAndRefusesARigWit
             "--alternation-schedule adaptive");
   EXPECT_EQ(joint_settings["scheme"].as<std::string>(), "joint");
   EXPECT_EQ(joint_settings["run_radius"].as<std::string>(), "0.3 m, 6 deg from each run's start (0 = no limit)");
-  EXPECT_EQ(joint_settings["stages"].as<std::string>().rfind("step x1 blur 0.02 restarts 1; ", 0), 0u)
-      << joint_settings["stages"].as<std::string>();
+  // On its 4 frames the preset's schedule runs without its wide stages, and the result says so.
+  EXPECT_EQ(joint_settings["stages"].as<std::string>(),
+            "step x0.3 blur 0.0015 restarts 1; step x0.1 blur 0 restarts 1");
+  EXPECT_EQ(joint_settings["few_frames"].as<std::string>().rfind(
+                "4 camera frame(s) with a scene for lidar lms_rear", 0),
+            0u);
   // With --scheme alt, the stages spread over 20 of at most 40 alternations (cut short here by the time budget).
   YAML::Node alt_result;
   ASSERT_NO_FATAL_FAILURE(calibrate("setting_alt.yaml",
@@ -693,6 +702,60 @@ TEST_F(CalibrateOnSimulation, CliFinalSwatheCentredSolvesTheLastStageAgainOnSwat
       << kept["settings"]["final_swathe"].as<std::string>();
   EXPECT_EQ(kept["settings"]["direction"].as<std::string>(), "forward");
   EXPECT_NE(text.find("the last stage runs again on one-sided swathes"), std::string::npos) << text;
+}
+
+// A preset's wide stages on a recording with few camera frames: left out,
+// with a warning and the reason in the result, whose options block holds the
+// schedule that ran (given back with --config, the same run). A --stages the
+// user gives is kept.
+TEST_F(CalibrateOnSimulation, CliFewFramesLeaveOutThePresetsWideStages) {
+  const fs::path spinning = test::SharedSimulation("spin3d_short", [](const fs::path& folder) {
+    sim::SimulationOptions options = test::SmallSimulationOptions(3);
+    options.preset = sim::Preset::kSpin3d;
+    options.distance_m = 40.0;
+    options.image_rate_hz = 2.0;
+    sim::Simulate(options, folder);
+  });
+  const std::string quick = " --scenes 4 --lbfgs-iterations 10 --no-uncertainty --no-basin-check";
+  std::string text;
+  const fs::path output = root_ / "few_frames.yaml";
+  ASSERT_EQ(RunCli("calibrate " + spinning.string() + " --output " + output.string() + quick, &text), 0) << text;
+  const YAML::Node result = YAML::LoadFile(output.string());
+  EXPECT_EQ(result["options"]["setting"].as<std::string>(), "3d-lidar");
+  const std::string few = result["settings"]["few_frames"].as<std::string>();
+  EXPECT_EQ(few.rfind("4 camera frame(s) with a scene for lidar spin (fewer than ", 0), 0u) << few;
+  EXPECT_NE(few.find("the schedule 1:0.02:1,1:0.004:2,0.3:0.0015:1,0.1:0:1 without its wide stages, "
+                     "0.3:0.0015:1,0.1:0:1"),
+            std::string::npos)
+      << few;
+  EXPECT_NE(text.find("without its wide stages"), std::string::npos) << text;
+  EXPECT_EQ(result["options"]["stages"].as<std::string>(), "0.3:0.0015:1,0.1:0:1");
+  // The centred final stage still ran, from the narrowed schedule's answer.
+  EXPECT_EQ(result["settings"]["final_swathe"].as<std::string>().rfind("centred: the last stage (0.1:0:1)", 0), 0u);
+
+  // Given back with --config: the same schedule, now the user's, and the same answer.
+  const fs::path again = root_ / "few_frames_again.yaml";
+  ASSERT_EQ(RunCli("calibrate " + spinning.string() + " --output " + again.string() + " --config " + output.string(),
+                   &text),
+            0)
+      << text;
+  const YAML::Node repeated = YAML::LoadFile(again.string());
+  EXPECT_EQ(repeated["options"]["stages"].as<std::string>(), "0.3:0.0015:1,0.1:0:1");
+  EXPECT_FALSE(repeated["settings"]["few_frames"].IsDefined());
+  EXPECT_EQ(repeated["lidars"]["spin"]["T_base_lidar"].as<std::vector<double>>(),
+            result["lidars"]["spin"]["T_base_lidar"].as<std::vector<double>>());
+
+  // A schedule given on the command line runs as given.
+  const fs::path given = root_ / "few_frames_given.yaml";
+  ASSERT_EQ(RunCli("calibrate " + spinning.string() + " --output " + given.string() + quick +
+                       " --stages 1:0.004:0,0.1:0:0",
+                   &text),
+            0)
+      << text;
+  const YAML::Node kept = YAML::LoadFile(given.string());
+  EXPECT_EQ(kept["options"]["stages"].as<std::string>(), "1:0.004:0,0.1:0:0");
+  EXPECT_FALSE(kept["settings"]["few_frames"].IsDefined());
+  EXPECT_EQ(text.find("without its wide stages"), std::string::npos) << text;
 }
 
 // --config: a file fills the options the command line did not give; the
@@ -1330,7 +1393,7 @@ TEST_F(CalibrateOnSimulation, MotionCorrectionCliWritesEachFramesCorrection) {
   const fs::path output = root_ / ("motion_" + scheme + ".yaml");
   std::string text;
   ASSERT_EQ(RunCli("calibrate " + DatasetPath().string() + " --output " + output.string() + " --scheme " + scheme +
-                       " --scenes 4 --motion-correction turn --motion-max-rate 0.04"
+                       " --scenes 4 --motion-correction turn --motion-max-rate 0.04 --stages " + kPushBroomStages +
                        " --no-uncertainty --no-basin-check" + (scheme == "alt" ? " --alternations 6" : ""),
                    &text),
             0)
@@ -1377,7 +1440,7 @@ TEST_F(CalibrateOnSimulation, MotionCorrectionInAltIsSharedByTheLidars) {
   std::string text;
   ASSERT_EQ(RunCli("calibrate " + dataset.string() + " --output " + output.string() +
                        " --scheme alt --alternations 6 --scenes 3 --motion-correction turn,drive-scale"
-                       " --no-uncertainty --no-basin-check",
+                       " --no-uncertainty --no-basin-check --stages " + kPushBroomStages,
                    &text),
             0)
       << text;

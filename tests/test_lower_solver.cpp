@@ -263,6 +263,22 @@ TEST(LowerSolverOptions, LbfgsNeedsBSplineBinning) {
   EXPECT_FALSE(ParseLowerSolver("bfgs", &parsed));
 }
 
+// A schedule's wide stages (the first stage's whole steps) are the ones left
+// out on recordings with few frames; a schedule of wide stages only stays.
+TEST(StageSchedule, WithoutWideStagesKeepsTheNarrowOnes) {
+  const std::vector<OptimisationStage> preset = {{1.0, 0.02, 1}, {1.0, 0.004, 2}, {0.3, 0.0015, 1}, {0.1, 0.0, 1}};
+  const std::vector<OptimisationStage> narrow = WithoutWideStages(preset);
+  ASSERT_EQ(narrow.size(), 2u);
+  EXPECT_DOUBLE_EQ(narrow[0].step_scale, 0.3);
+  EXPECT_DOUBLE_EQ(narrow[0].blur_fraction, 0.0015);
+  EXPECT_EQ(narrow[0].restarts, 1);
+  EXPECT_DOUBLE_EQ(narrow[1].step_scale, 0.1);
+  EXPECT_EQ(WithoutWideStages(DefaultStages()).size(), 2u);
+  const std::vector<OptimisationStage> paper = {{1.0, 0.0, 0}};
+  ASSERT_EQ(WithoutWideStages(paper).size(), 1u);
+  EXPECT_DOUBLE_EQ(WithoutWideStages(paper)[0].step_scale, 1.0);
+}
+
 // The alt lower level on costs with known minima (no analytic gradient: central differences).
 TEST(AlternatingLbfgs, BowlsConvergeToTheTruthWithFewerEvaluationsThanTheSimplex) {
   const Eigen::Isometry3d T_base_right = TransformFromTuple((Vector6d() << 0.24, 0, 0, 0, 0, 0).finished());

@@ -151,6 +151,13 @@ TEST(Scenes, StandingAndShortRecordingsServeA3dLidarOnly) {
   EXPECT_NE(why.find("2d (push-broom)"), std::string::npos) << why;
   EXPECT_NE(why.find("10 m of travel"), std::string::npos) << why;
   EXPECT_EQ(standing.WhyNoScenes(rig.lidars[1]), "");
+  // Camera frames with a scene, per lidar (what decides whether a preset's wide stages run).
+  EXPECT_EQ(standing.FramesOf("roof"), 5);
+  EXPECT_EQ(standing.FramesOf("rear"), 0);
+  EXPECT_EQ(standing.FramesOf("no such lidar"), 0);
+  SceneSelection stereo;  // two cameras of one frame count once
+  stereo.scenes = {{"left", "roof", 10, 0.0, {}}, {"right", "roof", 10, 0.0, {}}, {"left", "roof", 20, 1.0, {}}};
+  EXPECT_EQ(stereo.FramesOf("roof"), 2);
 
   // 3 m of travel at 1 m/s: the 10 m forward swathe never fits; the 3D lidar
   // takes the scans ahead that the trajectory has.

@@ -329,7 +329,7 @@ void LogPairReports(const std::vector<PairReport>& pairs) {
 
 // The command line's choices that the result records beside the core's settings.
 void RecordCommandSettings(const CalibrateArguments& args, const std::string& single_frame_defaults,
-                           CalibrationResult* result) {
+                           const std::string& few_frames, CalibrationResult* result) {
   result->settings["image_channel"] = io::ImageChannelName(args.cost.ImageChannel());
   const AppliedConfiguration& applied = args.applied;
   if (!applied.setting.empty()) {
@@ -340,6 +340,7 @@ void RecordCommandSettings(const CalibrateArguments& args, const std::string& si
   if (applied.automatic) result->settings["setting_chosen_by"] = "--setting auto: " + applied.automatic_reason;
   if (!args.config.files.empty()) result->settings["config"] = fmt::format("{}", fmt::join(args.config.files, ", "));
   if (!single_frame_defaults.empty()) result->settings["single_frame_defaults"] = single_frame_defaults;
+  if (!few_frames.empty()) result->settings["few_frames"] = few_frames;
   if (PerturbsInitialGuesses(args)) {
     result->settings["perturb_initial"] =
         fmt::format("{} m, {} deg, seed {}, from {}", args.perturb_translation_m, args.perturb_rotation_deg, args.seed,
@@ -486,11 +487,55 @@ void PrintErrorsAgainstTruth(const io::Dataset& dataset, const Rig& rig, const C
 struct DatasetSolve {
   CalibrationOptions options;
   std::string single_frame_defaults;
+  std::string few_frames;  // what NarrowScheduleForFewFrames changed, for the result
   CalibrationInput input;
   std::unique_ptr<Calibrator> calibrator;
   std::optional<CalibrationOutcome> outcome;  // none on an MPI rank that served lower levels
   double load_s = 0.0;
 };
+
+// Frames with a scene a lidar needs before a preset's wide stages run: half
+// the 30 frames with which they were measured to widen the basin. On short
+// windows of the simulated drives (1-8 frames) they walked up to 1.5 m off
+// from starts 10 cm / 2 deg away, and 44-58 cm on the real DGP scene, where
+// the narrow stages alone ended at most 45 cm, resp. 12 cm off, most within a
+// few (BENCHMARK.md, "Short recordings").
+constexpr int kMinFramesForWideStages = 15;
+
+// A preset's schedule (--stages set by --setting, not given) without its wide
+// stages when a lidar has fewer than kMinFramesForWideStages frames with a
+// scene. Returns what it did (logged), or "" when it left the schedule alone.
+std::string NarrowScheduleForFewFrames(const CalibrateArguments& args, const CalibrationInput& input,
+                                       CalibrationOptions* options) {
+  const std::vector<std::string>& preset_set = args.applied.set_options;
+  if (std::find(preset_set.begin(), preset_set.end(), "--stages") == preset_set.end()) return {};
+  std::string fewest_lidar;
+  int fewest = kMinFramesForWideStages;
+  for (const LidarInfo& lidar : input.rig.lidars) {
+    const int frames = input.selection.FramesOf(lidar.name);
+    if (frames > 0 && frames < fewest) {
+      fewest = frames;
+      fewest_lidar = lidar.name;
+    }
+  }
+  if (fewest_lidar.empty()) return {};
+  const std::vector<OptimisationStage> narrow = WithoutWideStages(options->stages);
+  const int dropped = static_cast<int>(options->stages.size() - narrow.size());
+  if (dropped == 0) return {};
+  const std::string text = fmt::format(
+      "{} camera frame(s) with a scene for lidar {} (fewer than {}): the schedule {} without its wide stages, {}; "
+      "on so few views they walk off along what the data do not constrain (--stages sets a schedule)",
+      fewest, fewest_lidar, kMinFramesForWideStages, StageScheduleText(options->stages), StageScheduleText(narrow));
+  options->stages = narrow;
+  // A drift correction from a later stage stays after at least one stage (not at the initial guess).
+  if (options->motion_correction_first_stage > 0) {
+    options->motion_correction_first_stage = std::max(1, options->motion_correction_first_stage - dropped);
+  }
+  // The result's options block then holds the schedule that ran, so that --config repeats the run.
+  SetOptionValue(args.command->get_option("--stages"), StageScheduleText(narrow));
+  spdlog::warn("{}", text);
+  return text;
+}
 
 // Options, scenes, calibrator, solve: kExitSuccess with *solve filled, else
 // the exit code (logged). `spent_s`: seconds of the command already spent,
@@ -523,6 +568,9 @@ int SolveDataset(const CalibrateArguments& args, const io::Dataset& dataset, Pro
   const LoadedScenes loaded = SelectAndLoadScenes(dataset, solve->options.scenes, &solve->input, args.cost.ImageChannel());
   solve->load_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   spdlog::info("loaded {} lidar points in {:.2f} s", loaded.lidar_points, solve->load_s);
+  if (std::string narrowed = NarrowScheduleForFewFrames(args, solve->input, &solve->options); !narrowed.empty()) {
+    solve->few_frames = std::move(narrowed);
+  }
   LogAdviceForRig(args, solve->options, solve->input.rig);
   LogCalibrationPlan(args, solve->options);
   solve->calibrator = std::make_unique<Calibrator>(solve->input, solve->options,
@@ -580,8 +628,10 @@ int DecideOnDrift(CalibrateArguments* args, const io::Dataset& dataset, ProcessG
     push_broom_answer[lidar.lidar] = lidar.T_base_lidar;
   }
   *replaced_answers = push_broom_answer;
+  const std::string few_frames = (*solve)->few_frames;  // the first solve's schedule, for the result
   solve->reset();  // the first solve's scenes go before the second's are loaded
   *solve = std::make_unique<DatasetSolve>();
+  (*solve)->few_frames = few_frames;
   const double tested_s = spent_s + std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return SolveDataset(*args, dataset, group, solve->get(), tested_s, push_broom_answer);
 }
@@ -622,8 +672,10 @@ int CentreFinalStage(const CalibrateArguments& args, const io::Dataset& dataset,
   spdlog::info("--final-swathe centred: the last stage ({}) again from the answer, on swathes {:g} m either side of "
                "each frame",
                stage_text, half_m);
+  const std::string few_frames = (*solve)->few_frames;  // the first solve's schedule, for the result
   solve->reset();  // the first solve's scenes go before the centred ones are loaded
   *solve = std::make_unique<DatasetSolve>();
+  (*solve)->few_frames = few_frames;
   const int exit_code = SolveDataset(args, dataset, group, solve->get(), spent_s, answers, centred, false);
   if (exit_code == kExitSuccess) {
     std::vector<std::string> moved;
@@ -649,6 +701,7 @@ int CentreFinalStage(const CalibrateArguments& args, const io::Dataset& dataset,
   *evidence = fmt::format("not applied: the centred swathes cannot be calibrated ({})", why);
   solve->reset();
   *solve = std::make_unique<DatasetSolve>();
+  (*solve)->few_frames = few_frames;
   return SolveDataset(args, dataset, group, solve->get(), spent_s, answers, last_stage_only);
 }
 
@@ -703,7 +756,7 @@ int RunCalibration(CalibrateArguments& args, ProcessGroup& group) {
   LogPairReports(outcome.pairs);
   CalibrationResult& result = outcome.result;
   result.timings_s["load"] = solve->load_s;
-  RecordCommandSettings(args, solve->single_frame_defaults, &result);
+  RecordCommandSettings(args, solve->single_frame_defaults, solve->few_frames, &result);
   if (!drift_evidence.empty()) result.settings["drift_test"] = drift_evidence;
   if (!final_swathe_evidence.empty()) result.settings["final_swathe"] = final_swathe_evidence;
   if (solve->options.scenes.choice == SceneChoice::kInformative) {
@@ -823,10 +876,14 @@ void AddScheduleOptions(CLI::App* command, CalibrateArguments* args) {
       ->check(CLI::Range(1, 1000000))
       ->capture_default_str();
   command->add_option("--stages", args->stages,
-                      "Coarse-to-fine schedule, comma-separated SCALE[:BLUR[:RESTARTS]] per stage: SCALE multiplies "
-                      "the initial simplex steps, BLUR is the image blur (Gaussian sigma as a fraction of the image "
-                      "width), RESTARTS the extra Nelder-Mead runs while the cost still improves. Images and "
-                      "visibility are refreshed before each stage. '1' = one plain run (the paper).")
+                      fmt::format("Coarse-to-fine schedule, comma-separated SCALE[:BLUR[:RESTARTS]] per stage: SCALE "
+                                  "multiplies the initial simplex steps, BLUR is the image blur (Gaussian sigma as a "
+                                  "fraction of the image width), RESTARTS the extra Nelder-Mead runs while the cost "
+                                  "still improves. Images and visibility are refreshed before each stage. '1' = one "
+                                  "plain run (the paper). A preset's schedule loses its wide stages (SCALE 1) when a "
+                                  "lidar has fewer than {} camera frames with a scene: on so few views they walk off "
+                                  "(BENCHMARK.md, \"Short recordings\"); given here, the schedule runs as given",
+                                  kMinFramesForWideStages))
       ->capture_default_str();
   command->add_option("--final-swathe", args->final_swathe,
                       "same: every stage on the swathes of --direction; centred (3D lidars): then the last stage "

@@ -87,13 +87,6 @@ std::vector<std::string> ApplyOptionFile(CLI::App* command, const io::OptionFile
   return words;
 }
 
-// The option's value replaced by `text`, through the option's own callback (set, as by the command line).
-void SetOptionValue(CLI::Option* option, const std::string& text) {
-  option->clear();
-  option->add_result(text);
-  option->run_callback();
-}
-
 // Back to the default: its value through the option's own callback, then unset.
 void ResetToDefault(CLI::Option* option) {
   const std::string default_text = option->get_default_str();
@@ -121,6 +114,12 @@ std::vector<std::string> DefaultValues(const CLI::Option& option) {
 }
 
 }  // namespace
+
+void SetOptionValue(CLI::Option* option, const std::string& text) {
+  option->clear();
+  option->add_result(text);
+  option->run_callback();
+}
 
 void AddConfigOptions(CLI::App* command, ConfigArguments* args, bool automatic) {
   command

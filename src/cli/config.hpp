@@ -62,6 +62,10 @@ AutomaticChoice ChooseSetting(const Rig& rig, std::size_t trajectory_poses, bool
 // and --setting reads `name` (for the result's options block).
 void ApplyPreset(CLI::App* command, const std::string& name, AppliedConfiguration* applied);
 
+// The option's value replaced by `text`, through the option's own callback
+// (set, as by the command line).
+void SetOptionValue(CLI::Option* option, const std::string& text);
+
 // Sets the options of `command` that are not set yet: from each --config
 // file, then from the --setting preset (which a file may name). A preset's
 // motion-correction leaves out drive-scale when --odometry-scale is set: the

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <limits>
 #include <memory>
 #include <set>
@@ -279,6 +280,13 @@ PairCost BuildPairCost(const CalibrationInput& input, const CameraInfo& camera, 
 }
 
 std::vector<OptimisationStage> DefaultStages() { return {{1.0, 0.004, 2}, {0.3, 0.0015, 1}, {0.1, 0.0, 1}}; }
+
+std::vector<OptimisationStage> WithoutWideStages(const std::vector<OptimisationStage>& stages) {
+  std::vector<OptimisationStage> narrow;
+  std::copy_if(stages.begin(), stages.end(), std::back_inserter(narrow),
+               [](const OptimisationStage& stage) { return stage.step_scale < 1.0; });
+  return narrow.empty() ? stages : narrow;
+}
 
 namespace {
 

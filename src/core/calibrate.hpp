@@ -59,6 +59,10 @@ struct OptimisationStage {
   int restarts = 0;
 };
 std::vector<OptimisationStage> DefaultStages();
+// The schedule without its wide stages, those that search with the first
+// stage's whole steps (step_scale >= 1): they widen the basin, but only many
+// views keep them on course. Unchanged when every stage is wide.
+std::vector<OptimisationStage> WithoutWideStages(const std::vector<OptimisationStage>& stages);
 
 // Solver options with the first stage's steps (simplex) or parameter scales (lbfgs).
 template <class SolverOptions>

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <optional>
+#include <set>
 #include <sstream>
 
 #include "core/validation.hpp"
@@ -38,6 +39,14 @@ bool SceneOptions::IsValid(std::string* why) const {
   if (max_scans_per_scene < 0) return Invalid(why, "max_scans_per_scene must be 0 (no cap) or positive");
   if (!(std::abs(odometry_scale) < 0.2)) return Invalid(why, "odometry_scale must be a fraction within (-0.2, 0.2)");
   return true;
+}
+
+int SceneSelection::FramesOf(const std::string& lidar) const {
+  std::set<TimeUs> times;
+  for (const Scene& scene : scenes) {
+    if (scene.lidar == lidar) times.insert(scene.image_t_us);
+  }
+  return static_cast<int>(times.size());
 }
 
 std::string SceneSelection::Report() const {

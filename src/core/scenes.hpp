@@ -137,6 +137,8 @@ struct SceneSelection {
 
   // Multi-line human-readable summary (for the CLI log).
   std::string Report() const;
+  // Camera frames (distinct image times, over every camera) with a scene of this lidar.
+  int FramesOf(const std::string& lidar) const;
   // Empty when the lidar has a scene; else why not, step by step: per camera
   // the images left out by each selection step, and what the lidar's kind needs.
   std::string WhyNoScenes(const LidarInfo& lidar) const;
