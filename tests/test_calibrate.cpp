@@ -618,6 +618,17 @@ TEST_F(CalibrateOnSimulation, CliAutoSettingChoosesFromTheRigAndTheData) {
   EXPECT_EQ(paper["settings"]["swathe_length_m"].as<std::string>(), "10");
 }
 
+// The short spin3d drive (40 m, images at 2 Hz) of the 3d-lidar preset's tests.
+fs::path SpinningShortDrive() {
+  return test::SharedSimulation("spin3d_short", [](const fs::path& folder) {
+    sim::SimulationOptions options = test::SmallSimulationOptions(3);
+    options.preset = sim::Preset::kSpin3d;
+    options.distance_m = 40.0;
+    options.image_rate_hz = 2.0;
+    sim::Simulate(options, folder);
+  });
+}
+
 // --final-swathe centred (the 3d-lidar preset): after the schedule, its last
 // stage runs again from the answer on swathes half as long on each side of
 // the frame; the result says how far that moved the answer and keeps the
@@ -625,13 +636,7 @@ TEST_F(CalibrateOnSimulation, CliAutoSettingChoosesFromTheRigAndTheData) {
 // cameras' view (the push-broom drive's rear lidar declared 3D) keeps the
 // one-sided answer, with a warning naming why.
 TEST_F(CalibrateOnSimulation, CliFinalSwatheCentredSolvesTheLastStageAgainOnSwathesAroundTheFrame) {
-  const fs::path spinning = test::SharedSimulation("spin3d_short", [](const fs::path& folder) {
-    sim::SimulationOptions options = test::SmallSimulationOptions(3);
-    options.preset = sim::Preset::kSpin3d;
-    options.distance_m = 40.0;
-    options.image_rate_hz = 2.0;
-    sim::Simulate(options, folder);
-  });
+  const fs::path spinning = SpinningShortDrive();
   const std::string quick = " --scenes 8 --stages 0.3:0.004:0,0.1:0:0 --lbfgs-iterations 10 --no-uncertainty "
                             "--no-basin-check";
   std::string text;
@@ -709,13 +714,7 @@ TEST_F(CalibrateOnSimulation, CliFinalSwatheCentredSolvesTheLastStageAgainOnSwat
 // schedule that ran (given back with --config, the same run). A --stages the
 // user gives is kept.
 TEST_F(CalibrateOnSimulation, CliFewFramesLeaveOutThePresetsWideStages) {
-  const fs::path spinning = test::SharedSimulation("spin3d_short", [](const fs::path& folder) {
-    sim::SimulationOptions options = test::SmallSimulationOptions(3);
-    options.preset = sim::Preset::kSpin3d;
-    options.distance_m = 40.0;
-    options.image_rate_hz = 2.0;
-    sim::Simulate(options, folder);
-  });
+  const fs::path spinning = SpinningShortDrive();
   const std::string quick = " --scenes 4 --lbfgs-iterations 10 --no-uncertainty --no-basin-check";
   std::string text;
   const fs::path output = root_ / "few_frames.yaml";
