@@ -224,7 +224,15 @@ TEST_F(UncertaintyOnSimulation, CliWritesTheEstimate) {
   EXPECT_EQ(verdict != "good", entry["verdict_reason"].IsDefined());
   std::ifstream printed(root_ / "out.txt");
   const std::string out((std::istreambuf_iterator<char>(printed)), std::istreambuf_iterator<char>());
-  EXPECT_NE(out.find("lidar lms_rear T_base_lidar error in sigmas: Mahalanobis"), std::string::npos) << out;
+  const std::size_t sigmas = out.find("lidar lms_rear T_base_lidar error in sigmas: Mahalanobis ");
+  ASSERT_NE(sigmas, std::string::npos) << out;
+  // Inside or outside the 95 % ellipsoid, as the distance says.
+  const double mahalanobis = std::stod(out.substr(sigmas + 57));
+  EXPECT_NE(out.find(mahalanobis <= 3.55 ? "(inside the 95 % ellipsoid: <= 3.55)"
+                                         : "(outside the 95 % ellipsoid: > 3.55)",
+                     sigmas),
+            std::string::npos)
+      << out;
   // The size of a 1-pixel misalignment of the edges, and the error in those pixels.
   ASSERT_TRUE(entry["edge_pixel_covariance"].IsSequence());
   EXPECT_EQ(entry["edge_pixel_covariance"].size(), 36u);

@@ -452,9 +452,11 @@ void PrintErrorsAgainstTruth(const io::Dataset& dataset, const Rig& rig, const C
     fmt::print("lidar {} T_base_lidar error: {}\n", lidar.lidar, ErrorLine(lidar.T_base_lidar, gt->second));
     if (lidar.covariance) {
       // 6 degrees of freedom: 95 % of errors within 3.55 when the covariance is right.
-      fmt::print("lidar {} T_base_lidar error in sigmas: Mahalanobis {:.2f} (within the 95 % ellipsoid below 3.55)\n",
-                 lidar.lidar,
-                 std::sqrt(TupleMahalanobisSquared(lidar.T_base_lidar, gt->second, *lidar.covariance)));
+      constexpr double kEllipsoid95 = 3.55;
+      const double mahalanobis = std::sqrt(TupleMahalanobisSquared(lidar.T_base_lidar, gt->second, *lidar.covariance));
+      const bool inside = mahalanobis <= kEllipsoid95;
+      fmt::print("lidar {} T_base_lidar error in sigmas: Mahalanobis {:.2f} ({} the 95 % ellipsoid: {} {:.2f})\n",
+                 lidar.lidar, mahalanobis, inside ? "inside" : "outside", inside ? "<=" : ">", kEllipsoid95);
     }
     const YAML::Node entry = uncertainty.IsDefined() && uncertainty.IsMap() ? uncertainty[lidar.lidar] : YAML::Node();
     const YAML::Node edges = entry.IsDefined() && entry.IsMap() ? entry["edge_pixel_covariance"] : YAML::Node();
