@@ -224,10 +224,11 @@ TEST_F(UncertaintyOnSimulation, CliWritesTheEstimate) {
   EXPECT_EQ(verdict != "good", entry["verdict_reason"].IsDefined());
   std::ifstream printed(root_ / "out.txt");
   const std::string out((std::istreambuf_iterator<char>(printed)), std::istreambuf_iterator<char>());
-  const std::size_t sigmas = out.find("lidar lms_rear T_base_lidar error in sigmas: Mahalanobis ");
+  const std::string sigmas_line = "lidar lms_rear T_base_lidar error in sigmas: Mahalanobis ";
+  const std::size_t sigmas = out.find(sigmas_line);
   ASSERT_NE(sigmas, std::string::npos) << out;
   // Inside or outside the 95 % ellipsoid, as the distance says.
-  const double mahalanobis = std::stod(out.substr(sigmas + 57));
+  const double mahalanobis = std::stod(out.substr(sigmas + sigmas_line.size()));
   EXPECT_NE(out.find(mahalanobis <= 3.55 ? "(inside the 95 % ellipsoid: <= 3.55)"
                                          : "(outside the 95 % ellipsoid: > 3.55)",
                      sigmas),

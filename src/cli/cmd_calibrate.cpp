@@ -163,9 +163,8 @@ int MakeCalibrationOptions(const CalibrateArguments& args, CalibrationOptions* o
   options->seed = args.seed;
   options->time_budget_s = args.time_budget_s;
   args.alternating.ApplyTo(&options->alternating);
-  const std::vector<std::string>& preset_set = args.applied.set_options;
   if (options->alternating.stage_alternations > options->alternating.max_alternations &&
-      std::find(preset_set.begin(), preset_set.end(), "--stage-alternations") != preset_set.end()) {
+      args.applied.PresetSet("--stage-alternations")) {
     // The preset's span is for its own --alternations; with fewer given, its stages spread over those.
     spdlog::info("--setting {}: --stage-alternations {} capped at --alternations {}", args.applied.setting,
                  options->alternating.stage_alternations, options->alternating.max_alternations);
@@ -509,8 +508,7 @@ constexpr int kMinFramesForWideStages = 15;
 // scene. Returns what it did (logged), or "" when it left the schedule alone.
 std::string NarrowScheduleForFewFrames(const CalibrateArguments& args, const CalibrationInput& input,
                                        CalibrationOptions* options) {
-  const std::vector<std::string>& preset_set = args.applied.set_options;
-  if (std::find(preset_set.begin(), preset_set.end(), "--stages") == preset_set.end()) return {};
+  if (!args.applied.PresetSet("--stages")) return {};
   std::string fewest_lidar;
   int fewest = kMinFramesForWideStages;
   for (const LidarInfo& lidar : input.rig.lidars) {
@@ -582,6 +580,16 @@ int SolveDataset(const CalibrateArguments& args, const io::Dataset& dataset, Pro
   return solve->outcome ? OutcomeExitCode(*solve->outcome) : kExitSuccess;
 }
 
+// An empty solve in place of *solve for the next one (its scenes freed before
+// the next's are loaded), keeping what the result reports of the first's
+// schedule.
+void StartNextSolve(std::unique_ptr<DatasetSolve>* solve) {
+  const std::string few_frames = (*solve)->few_frames;
+  solve->reset();
+  *solve = std::make_unique<DatasetSolve>();
+  (*solve)->few_frames = few_frames;
+}
+
 // --setting auto: the preset for the data (ChooseSetting), applied and logged.
 AutomaticChoice ChooseAutomatically(CalibrateArguments* args, const io::Dataset& dataset, const ProcessGroup& group) {
   if (!args->applied.automatic) return {};
@@ -630,10 +638,7 @@ int DecideOnDrift(CalibrateArguments* args, const io::Dataset& dataset, ProcessG
     push_broom_answer[lidar.lidar] = lidar.T_base_lidar;
   }
   *replaced_answers = push_broom_answer;
-  const std::string few_frames = (*solve)->few_frames;  // the first solve's schedule, for the result
-  solve->reset();  // the first solve's scenes go before the second's are loaded
-  *solve = std::make_unique<DatasetSolve>();
-  (*solve)->few_frames = few_frames;
+  StartNextSolve(solve);
   const double tested_s = spent_s + std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return SolveDataset(*args, dataset, group, solve->get(), tested_s, push_broom_answer);
 }
@@ -674,10 +679,7 @@ int CentreFinalStage(const CalibrateArguments& args, const io::Dataset& dataset,
   spdlog::info("--final-swathe centred: the last stage ({}) again from the answer, on swathes {:g} m either side of "
                "each frame",
                stage_text, half_m);
-  const std::string few_frames = (*solve)->few_frames;  // the first solve's schedule, for the result
-  solve->reset();  // the first solve's scenes go before the centred ones are loaded
-  *solve = std::make_unique<DatasetSolve>();
-  (*solve)->few_frames = few_frames;
+  StartNextSolve(solve);
   const int exit_code = SolveDataset(args, dataset, group, solve->get(), spent_s, answers, centred, false);
   if (exit_code == kExitSuccess) {
     std::vector<std::string> moved;
@@ -701,9 +703,7 @@ int CentreFinalStage(const CalibrateArguments& args, const io::Dataset& dataset,
                "one-sided swathes from their answer",
                why);
   *evidence = fmt::format("not applied: the centred swathes cannot be calibrated ({})", why);
-  solve->reset();
-  *solve = std::make_unique<DatasetSolve>();
-  (*solve)->few_frames = few_frames;
+  StartNextSolve(solve);
   return SolveDataset(args, dataset, group, solve->get(), spent_s, answers, last_stage_only);
 }
 

@@ -4,6 +4,7 @@
 // its own value; then each --config file in the order given; then the preset.
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
 #include <string>
 #include <vector>
@@ -35,6 +36,11 @@ struct AppliedConfiguration {
   std::string requires_data;               // its `requires` (io::kRequiresPushBroomDrive, kRequiresDrive), empty: any
   bool automatic = false;                  // --setting auto: the preset is chosen from the data (ChooseSetting)
   std::string automatic_reason;            // why ChooseSetting chose it
+
+  // Whether the preset set `option` (e.g. "--stages"): not given on the command line or in a --config file.
+  bool PresetSet(const std::string& option) const {
+    return std::find(set_options.begin(), set_options.end(), option) != set_options.end();
+  }
 };
 
 // The push-broom preset measured for a trajectory from `source`: push-broom
