@@ -9,9 +9,10 @@
 # recording length (FRAMES, default "3 5 8 12": that many consecutive camera frames from the FIRST-th, default 10;
 # the scans and trajectory rows within 0.3 s / 0.6 s of them). Each run starts PERTURB_T m / PERTURB_R deg (default
 # 0.1, 2) from the truth in a random direction per seed of STARTS (default "1 2 3"), without the uncertainty and the
-# basin check. Columns: no flags (what auto chose and whether it left the wide stages out), the preset's whole
-# schedule, its narrow stages. Prints a Markdown table (median / worst translation and rotation error, the frames
-# with a scene, median time) and keeps it in OUT_DIR/table.md. Whole drives stay in OUT_DIR/data (reused; spin3d
+# basin check. Columns (COLUMNS, default "auto wide narrow"): no flags (what auto chose and whether it left the wide
+# stages out), the preset's whole schedule, its narrow stages. Each run adds a row to OUT_DIR/results.tsv (remove
+# it to start afresh). Prints a Markdown table (median / worst translation and rotation error, the frames with a
+# scene, median time) and keeps it in OUT_DIR/table.md. Whole drives stay in OUT_DIR/data (reused; spin3d
 # DISTANCE 150 m as in BENCHMARK.md), the cut recordings in OUT_DIR/short. Other variables: SCENECAL
 # (build/bin/scenecal), TABLE_ONLY=1 (the table again from OUT_DIR/results.tsv).
 set -euo pipefail
@@ -23,6 +24,7 @@ worlds=${WORLDS:-"1 2 3"}
 frame_counts=${FRAMES:-"3 5 8 12"}
 first=${FIRST:-10}
 starts=${STARTS:-"1 2 3"}
+columns=${COLUMNS:-"auto wide narrow"}
 perturb_t=${PERTURB_T:-0.1}
 perturb_r=${PERTURB_R:-2}
 wide="1:0.02:1,1:0.004:2,0.3:0.0015:1,0.1:0:1"  # the push-broom and 3d-lidar presets' schedule
@@ -33,7 +35,7 @@ narrow="0.3:0.0015:1,0.1:0:1"
 mkdir -p "$out/data" "$out/short" "$out/runs"
 results="$out/results.tsv"
 [[ ${TABLE_ONLY:-0} == 1 ]] && presets=""
-[[ ${TABLE_ONLY:-0} == 1 ]] || printf 'preset\tworld\tframes\tcolumn\tstart\tused_frames\ttranslation_m\trotation_deg\tseconds\tnarrowed\n' >"$results"
+[[ ${TABLE_ONLY:-0} == 1 || -f $results ]] || printf 'preset\tworld\tframes\tcolumn\tstart\tused_frames\ttranslation_m\trotation_deg\tseconds\tnarrowed\n' >"$results"
 
 source scripts/bench_simulate.sh
 
@@ -78,7 +80,7 @@ for preset in $presets; do
     for frames in $frame_counts; do
       recording="$out/short/${preset}_w${world}_n${frames}"
       cut_recording "$data" "$recording" "$frames"
-      for column in auto wide narrow; do
+      for column in $columns; do
         for start in $starts; do
           tag="${preset}_w${world}_n${frames}_${column}_${start}"
           stages=()

@@ -191,6 +191,106 @@ TEST(Scenes, StandingAndShortRecordingsServeA3dLidarOnly) {
   EXPECT_EQ(moving.pairs[1].short_swathe_scenes, 0);
 }
 
+// A drive with fewer whole swathes than wanted: a 3D lidar fills the count
+// with the other frames (in time order, each with the travel there is); a 2D
+// lidar keeps the whole swathes only; where the count is met nothing is added.
+TEST(Scenes, A3dLidarFillsTheCountWithFramesWithoutAWholeSwathe) {
+  Rig rig = OneCameraOneLidar();
+  rig.lidars[0].kind = LidarKind::k2d;
+  LidarInfo roof;
+  roof.name = "roof";
+  roof.kind = LidarKind::k3d;
+  rig.lidars.push_back(roof);
+  // 12 m at 1 m/s, an image a second: only the frames at 0, 1 and 2 m have 10 m ahead.
+  const std::map<std::string, std::vector<TimeUs>> images = {{"left", Every(kSecond, 0, 12 * kSecond)}};
+  const std::map<std::string, std::vector<TimeUs>> scans = {{"rear", Every(kSecond / 10, kSecond / 50, 12 * kSecond)},
+                                                            {"roof", Every(kSecond / 10, kSecond / 50, 12 * kSecond)}};
+  SceneOptions options;
+  options.scenes_per_camera = 30;
+  const Trajectory trajectory = StraightDrive(1.0, 12);
+  const SceneSelection selection = SelectScenes(rig, trajectory, images, scans, options);
+  EXPECT_EQ(selection.cameras[0].eligible, 3);
+  EXPECT_EQ(selection.cameras[0].skipped_window_outside, 10);
+  ASSERT_EQ(selection.pairs.size(), 2u);
+  EXPECT_EQ(selection.pairs[0].scenes, 3) << "a 2d lidar needs the whole swathe";
+  EXPECT_EQ(selection.pairs[0].short_swathe_scenes, 0);
+  EXPECT_EQ(selection.pairs[1].scenes, 13);
+  EXPECT_EQ(selection.pairs[1].short_swathe_scenes, 10);
+  EXPECT_EQ(selection.FramesOf("roof"), 13);
+  EXPECT_EQ(selection.FramesOf("rear"), 3);
+  TimeUs previous = -1;
+  for (const Scene& scene : selection.scenes) {
+    if (scene.lidar != "roof") continue;
+    SCOPED_TRACE(scene.image_t_us);
+    EXPECT_GT(scene.image_t_us, previous) << "in time order";
+    previous = scene.image_t_us;
+    ASSERT_FALSE(scene.scans.empty());
+    const double ahead_m = std::min(10.0, 12.0 - scene.distance_m);
+    if (ahead_m >= 0.5) {
+      // The forward swathe up to the trajectory's end (or its whole 10 m).
+      EXPECT_GE(scene.scans.front().t_us, scene.image_t_us);
+      EXPECT_NEAR(trajectory.DistanceAt(scene.scans.back().t_us) - scene.distance_m, ahead_m, 0.15);
+    } else {
+      ASSERT_EQ(scene.scans.size(), 1u) << "less than 0.5 m ahead: the nearest scan alone";
+    }
+  }
+
+  options.scenes_per_camera = 3;  // the whole swathes meet the count
+  const SceneSelection enough = SelectScenes(rig, trajectory, images, scans, options);
+  EXPECT_EQ(enough.pairs[1].scenes, 3);
+  EXPECT_EQ(enough.pairs[1].short_swathe_scenes, 0);
+}
+
+// On a drive with a stop, the frames that fill a 3D lidar's count are one
+// per place (the stop's frames repeat one view), and a short swathe keeps
+// one scan of those taken standing (they repeat one view) and every moving one.
+TEST(Scenes, TheFillTakesOneFramePerPlaceAndOneScanPerPosition) {
+  Rig rig = OneCameraOneLidar();
+  rig.lidars[0].kind = LidarKind::k3d;
+  const Trajectory trajectory = DriveWithStop();  // 80 m; standing at 40 m from 40 s to 60 s
+  SceneOptions options;
+  options.scenes_per_camera = 60;  // more than the frames with a whole swathe
+  // An image every 2 s from 1 s: 10 taken standing at 40 m, 1 m from the moving frames either side.
+  const std::map<std::string, std::vector<TimeUs>> images = {{"left", Every(2 * kSecond, kSecond, 100 * kSecond)}};
+  const std::map<std::string, std::vector<TimeUs>> scans = {{"rear", Every(kSecond / 10, kSecond / 50, 100 * kSecond)}};
+  const SceneSelection selection = SelectScenes(rig, trajectory, images, scans, options);
+  ASSERT_GE(selection.cameras[0].skipped_standing_still, 8);
+  ASSERT_GT(selection.pairs[0].short_swathe_scenes, 0);
+  int at_the_stop = 0;
+  std::vector<double> places;
+  for (const Scene& scene : selection.scenes) {
+    SCOPED_TRACE(scene.image_t_us);
+    if (scene.image_t_us > 40 * kSecond && scene.image_t_us < 60 * kSecond) ++at_the_stop;
+    for (const double place : places) EXPECT_GE(std::abs(scene.distance_m - place), 0.5) << "one frame per place";
+    places.push_back(scene.distance_m);
+    if (scene.distance_m + 10.0 <= 80.0) continue;  // a whole swathe: every scan of its window
+    // Every scan to the drive's end, 0.1 m apart.
+    ASSERT_GT(scene.scans.size(), 1u);
+    EXPECT_NEAR(trajectory.DistanceAt(scene.scans.back().t_us), 80.0, 0.1);
+    for (std::size_t j = 1; j < scene.scans.size(); ++j) {
+      EXPECT_NEAR(trajectory.DistanceAt(scene.scans[j].t_us) - trajectory.DistanceAt(scene.scans[j - 1].t_us), 0.1, 1e-6);
+    }
+  }
+  EXPECT_EQ(at_the_stop, 1) << "the stop's frames repeat one view";
+  // The drive's end: the frames there fill the count, down to the last one (1 m before the end).
+  EXPECT_NEAR(places.back(), 79.0, 0.05);
+
+  // A standing scene's scans: from a frame at the stop, the window starts with one scan for the whole stop.
+  options.swathe_length_m = 50.0;  // no frame after 30 m has a whole swathe: the stop's frame fills
+  const SceneSelection long_swathes = SelectScenes(rig, trajectory, images, scans, options);
+  bool stop_scene_seen = false;
+  for (const Scene& scene : long_swathes.scenes) {
+    if (std::abs(scene.distance_m - 40.0) >= 0.5 || scene.scans.empty()) continue;
+    stop_scene_seen = true;
+    const auto standing = std::count_if(scene.scans.begin(), scene.scans.end(), [&](const SwatheScan& scan) {
+      return std::abs(trajectory.DistanceAt(scan.t_us) - 40.0) < 1e-9;
+    });
+    EXPECT_EQ(standing, 1) << "one scan for the 20 s standing";
+    EXPECT_GT(scene.scans.size(), 100u) << "and the 40 m of travel after it, every 0.1 m";
+  }
+  EXPECT_TRUE(stop_scene_seen);
+}
+
 TEST(Scenes, ForwardBackwardAndBothWindows) {
   const Trajectory trajectory = DriveWithStop();
   const auto scans = Every(kSecond / 50, 0, 100 * kSecond);

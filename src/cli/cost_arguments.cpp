@@ -18,7 +18,8 @@ void AddSceneOptions(CLI::App* command, CostArguments* args) {
   command
       ->add_option("--scenes", args->scenes,
                    "Camera frames (scenes) per camera: a count (spread over the drive by distance unless "
-                   "--scene-choice informative), or auto: of " +
+                   "--scene-choice informative; where fewer frames have a whole swathe, a 3d lidar fills the count "
+                   "with frames taken standing or near the drive's ends, one per place), or auto: of " +
                        std::to_string(kCoreDefaults.scenes.scenes_per_camera) +
                        " frames spread by distance, the informative choice keeps the fewest (at least " +
                        std::to_string(kCoreDefaults.scenes.min_auto_scenes) + ") whose predicted variance is within " +
@@ -138,7 +139,10 @@ void AddScanSelectionOptions(CLI::App* command, CostArguments* args) {
                       "Keep only the scans of a swathe whose points reach the image at the initial guess, plus this "
                       "margin (metres of travel) either side; negative keeps every scan of the window")
       ->capture_default_str();
-  command->add_option("--min-speed", args->min_speed_mps, "Frames taken below this speed (m/s) are skipped")
+  command
+      ->add_option("--min-speed", args->min_speed_mps,
+                   "Frames taken below this speed (m/s) have no swathe: a 2d lidar skips them, a 3d lidar uses them "
+                   "only to fill --scenes (the scan nearest the image and the travel that follows)")
       ->check(kNonNegative)
       ->capture_default_str();
   command->add_option("--odometry-scale", args->odometry_scale_percent,

@@ -156,6 +156,9 @@ std::vector<std::size_t> SpreadByDistance(const std::vector<double>& distances_m
 // scan nearest the image time is taken alone, if the vehicle moved less than
 // that between the two.
 constexpr double kMinShortSwatheTravelM = 0.5;
+// Less travel than this between two scans: the vehicle stood (a crawl at
+// 0.1 m/s still moves it between 10 Hz scans).
+constexpr double kStandingTravelM = 0.01;
 
 std::vector<TimeUs> ShortSwathe(const Trajectory& trajectory, const std::vector<TimeUs>& scan_times, TimeUs t_k,
                                 double from_m, double to_m) {
@@ -169,7 +172,18 @@ std::vector<TimeUs> ShortSwathe(const Trajectory& trajectory, const std::vector<
   }
   const double travel_m =
       window.empty() ? 0.0 : trajectory.DistanceAt(window.back()) - trajectory.DistanceAt(window.front());
-  if (travel_m >= kMinShortSwatheTravelM) return window;
+  if (travel_m >= kMinShortSwatheTravelM) {
+    // Scans taken where the one before was (standing) repeat its view: at a
+    // stop they outnumbered the moving scans of the window 75 to 94 (a
+    // simulated spin3d recording), and pulled the answer 1-9 cm off.
+    std::vector<TimeUs> moved;
+    for (const TimeUs t : window) {
+      if (moved.empty() || trajectory.DistanceAt(t) - trajectory.DistanceAt(moved.back()) >= kStandingTravelM) {
+        moved.push_back(t);
+      }
+    }
+    return moved;
+  }
   if (nearest && std::abs(trajectory.DistanceAt(*nearest) - trajectory.DistanceAt(t_k)) < kMinShortSwatheTravelM) {
     return {*nearest};
   }
@@ -313,31 +327,61 @@ LidarSelectionReport SelectPairScenes(const SelectionContext& context, const std
   LidarSelectionReport report;
   report.camera = camera;
   report.lidar = lidar.name;
-  // A 3D lidar on a recording without one whole swathe (standing, or
-  // shorter than the swathe) takes the frames there are, each with the
-  // scans of the travel there is: a 3D scan is a scene by itself.
-  const bool short_swathes =
-      lidar.kind == LidarKind::k3d && frames.eligible_times.empty() && !frames.short_times.empty();
-  const std::vector<TimeUs>& frame_times = short_swathes ? frames.short_times : frames.eligible_times;
-  const std::vector<double>& frame_distances = short_swathes ? frames.short_distances : frames.eligible_distances;
+  // A 3D scan is a scene by itself, so a 3D lidar also takes frames without
+  // a whole swathe (standing, or near the drive's ends), each with the scans
+  // of the travel there is: all of them on a recording without one whole
+  // swathe, and elsewhere one per place, as many as fill the wanted count
+  // (on 3-12 frames cut from the simulated spin3d drives, runs that used 1-2
+  // of their frames ended 1-45 cm off; docs/findings.md, "Few frames").
+  struct Pick {
+    TimeUs t_us;
+    double distance_m;
+    bool short_swathe;
+  };
+  std::vector<Pick> picks;
+  for (const std::size_t index : chosen) {
+    picks.push_back({frames.eligible_times[index], frames.eligible_distances[index], false});
+  }
   const std::size_t wanted = static_cast<std::size_t>(context.options.CandidatesPerCamera());
-  // Spread by time: standing frames share one distance.
-  const std::vector<std::size_t> indices =
-      short_swathes ? ThinEvenly(frames.short_times.size(), std::min(frames.short_times.size(), wanted)) : chosen;
-  for (const std::size_t index : indices) {
+  if (lidar.kind == LidarKind::k3d && !picks.empty() && picks.size() < wanted) {
+    // One frame per place: frames at a stop repeat one view.
+    std::vector<std::size_t> places;
+    for (std::size_t i = 0; i < frames.short_times.size(); ++i) {
+      const auto near = [&](double distance_m) {
+        return std::abs(distance_m - frames.short_distances[i]) < kMinShortSwatheTravelM;
+      };
+      const bool taken = std::any_of(picks.begin(), picks.end(), [&](const Pick& pick) { return near(pick.distance_m); }) ||
+                         std::any_of(places.begin(), places.end(),
+                                     [&](std::size_t j) { return near(frames.short_distances[j]); });
+      if (!taken) places.push_back(i);
+    }
+    const std::size_t fill = std::min(places.size(), wanted - picks.size());
+    for (const std::size_t k : ThinEvenly(places.size(), fill)) {
+      picks.push_back({frames.short_times[places[k]], frames.short_distances[places[k]], true});
+    }
+    std::sort(picks.begin(), picks.end(), [](const Pick& a, const Pick& b) { return a.t_us < b.t_us; });
+  } else if (lidar.kind == LidarKind::k3d && picks.empty()) {
+    // No whole swathe anywhere: every frame there is, spread by time
+    // (standing frames share one distance, and their images still differ).
+    const std::size_t count = std::min(frames.short_times.size(), wanted);
+    for (const std::size_t index : ThinEvenly(frames.short_times.size(), count)) {
+      picks.push_back({frames.short_times[index], frames.short_distances[index], true});
+    }
+  }
+  for (const Pick& pick : picks) {
     Scene scene;
     scene.camera = camera;
     scene.lidar = lidar.name;
-    scene.image_t_us = frame_times[index];
-    scene.distance_m = frame_distances[index];
-    AddScans(context, SceneWindow(context, scan_times, scene.image_t_us, scene.distance_m, short_swathes), &scene,
+    scene.image_t_us = pick.t_us;
+    scene.distance_m = pick.distance_m;
+    AddScans(context, SceneWindow(context, scan_times, scene.image_t_us, scene.distance_m, pick.short_swathe), &scene,
              &report);
     if (scene.scans.empty()) {
       ++report.frames_without_scans;
       continue;
     }
     ++report.scenes;
-    if (short_swathes) ++report.short_swathe_scenes;
+    if (pick.short_swathe) ++report.short_swathe_scenes;
     report.scans_used += static_cast<int>(scene.scans.size());
     scenes->push_back(std::move(scene));
   }

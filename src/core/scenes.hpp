@@ -120,10 +120,10 @@ struct LidarSelectionReport {
   int frames_without_scans = 0;  // selected frames with no scan of this lidar in their window
   int scans_used = 0;            // total over scenes (a scan may serve several scenes)
   int scans_without_pose = 0;    // scans in a window but outside the trajectory
-  // 3D lidar on a recording where no frame of the camera has a whole swathe
-  // (standing, or a drive shorter than the swathe): scenes built from those
-  // frames with the scans of the travel there is (the nearest scan alone
-  // when standing).
+  // 3D lidar: scenes from frames without a whole swathe (standing, or near
+  // the drive's ends), with the scans of the travel there is (the nearest
+  // scan alone when standing). Every such frame where no frame of the camera
+  // has a whole swathe; elsewhere as many as fill the wanted count.
   int short_swathe_scenes = 0;
 };
 
