@@ -268,7 +268,9 @@ TEST(Scenes, TheFillTakesOneFramePerPlaceAndOneScanPerPosition) {
     ASSERT_GT(scene.scans.size(), 1u);
     EXPECT_NEAR(trajectory.DistanceAt(scene.scans.back().t_us), 80.0, 0.1);
     for (std::size_t j = 1; j < scene.scans.size(); ++j) {
-      EXPECT_NEAR(trajectory.DistanceAt(scene.scans[j].t_us) - trajectory.DistanceAt(scene.scans[j - 1].t_us), 0.1, 1e-6);
+      const double step_m =
+          trajectory.DistanceAt(scene.scans[j].t_us) - trajectory.DistanceAt(scene.scans[j - 1].t_us);
+      EXPECT_NEAR(step_m, 0.1, 1e-6);
     }
   }
   EXPECT_EQ(at_the_stop, 1) << "the stop's frames repeat one view";
