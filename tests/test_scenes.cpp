@@ -112,16 +112,22 @@ Trajectory StraightDrive(double speed_mps, int seconds) {
   return Trajectory(times, poses);
 }
 
-// Recordings without one whole swathe: a 3D lidar's scans are scenes by
-// themselves (standing: the nearest scan; short: the travel there is); a 2D
-// lidar gets none, and the counts say why.
-TEST(Scenes, StandingAndShortRecordingsServeA3dLidarOnly) {
+// One camera, a 2D push-broom lidar "rear" and a 3D lidar "roof".
+Rig PushBroomAndRoofLidar() {
   Rig rig = OneCameraOneLidar();
   rig.lidars[0].kind = LidarKind::k2d;
   LidarInfo roof;
   roof.name = "roof";
   roof.kind = LidarKind::k3d;
   rig.lidars.push_back(roof);
+  return rig;
+}
+
+// Recordings without one whole swathe: a 3D lidar's scans are scenes by
+// themselves (standing: the nearest scan; short: the travel there is); a 2D
+// lidar gets none, and the counts say why.
+TEST(Scenes, StandingAndShortRecordingsServeA3dLidarOnly) {
+  const Rig rig = PushBroomAndRoofLidar();
   const std::map<std::string, std::vector<TimeUs>> images = {{"left", Every(kSecond / 10, 0, 3 * kSecond)}};
   const std::map<std::string, std::vector<TimeUs>> scans = {{"rear", Every(kSecond / 10, kSecond / 50, 3 * kSecond)},
                                                             {"roof", Every(kSecond / 10, kSecond / 50, 3 * kSecond)}};
@@ -195,12 +201,7 @@ TEST(Scenes, StandingAndShortRecordingsServeA3dLidarOnly) {
 // with the other frames (in time order, each with the travel there is); a 2D
 // lidar keeps the whole swathes only; where the count is met nothing is added.
 TEST(Scenes, A3dLidarFillsTheCountWithFramesWithoutAWholeSwathe) {
-  Rig rig = OneCameraOneLidar();
-  rig.lidars[0].kind = LidarKind::k2d;
-  LidarInfo roof;
-  roof.name = "roof";
-  roof.kind = LidarKind::k3d;
-  rig.lidars.push_back(roof);
+  const Rig rig = PushBroomAndRoofLidar();
   // 12 m at 1 m/s, an image a second: only the frames at 0, 1 and 2 m have 10 m ahead.
   const std::map<std::string, std::vector<TimeUs>> images = {{"left", Every(kSecond, 0, 12 * kSecond)}};
   const std::map<std::string, std::vector<TimeUs>> scans = {{"rear", Every(kSecond / 10, kSecond / 50, 12 * kSecond)},
