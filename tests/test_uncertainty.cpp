@@ -477,17 +477,23 @@ TEST(ErrorEstimate, APixelFloorAlongWhatTheEdgesShowLeast) {
   // A 1 mm sigma on each translation and 0.01 deg on each rotation: 3 x 0.4^2 + 2 x 0.2^2 + 0.002^2 px^2.
   EXPECT_NEAR(sized.sigma_px, std::sqrt(3 * 0.16 + 2 * 0.04 + 4e-6), 1e-9);
 
-  // The default floor, 0.02 px: 0.02 / 0.02 = 1 step (0.1 deg) more sigma about z, 0.05 mm along x.
+  // The default floor, 0.04 px: 0.04 / 0.02 = 2 steps (0.2 deg) more sigma about z, 0.1 mm along x.
   const ErrorEstimateOptions defaults;
-  ASSERT_EQ(defaults.alignment_floor_px, 0.02);
+  ASSERT_EQ(defaults.alignment_floor_px, 0.04);
   const LidarErrorEstimate floored = EstimateLidarError(answer, local, &came_back, {}, false, units);
-  EXPECT_NEAR(floored.covariance_d(5, 5), std::pow(0.1 * unit_r, 2) + std::pow(unit_r, 2), 1e-15);
-  EXPECT_NEAR(floored.covariance_d(0, 0), std::pow(0.1 * unit_t, 2) + std::pow(0.02 * unit_t / 4.0, 2), 1e-15);
+  EXPECT_NEAR(floored.covariance_d(5, 5), std::pow(0.1 * unit_r, 2) + std::pow(2.0 * unit_r, 2), 1e-15);
+  EXPECT_NEAR(floored.covariance_d(0, 0), std::pow(0.1 * unit_t, 2) + std::pow(0.04 * unit_t / 4.0, 2), 1e-15);
   EXPECT_NEAR(floored.covariance_d(0, 5), 0.0, 1e-15);
   EXPECT_GT(floored.share_floor, 0.9);
-  // 2 sigma about z is now 0.2 deg and a little more: weak along it.
+  // 2 sigma about z is now 0.4 deg: weak along it.
   EXPECT_EQ(floored.verdict, Verdict::kWeak);
-  EXPECT_NE(floored.verdict_reason.find("rz +0.10"), std::string::npos) << floored.verdict_reason;
+  EXPECT_NE(floored.verdict_reason.find("rz +0.20"), std::string::npos) << floored.verdict_reason;
+  // Half the floor (0.02 px): 1 step more about z, 2 sigma just above 0.2 deg, still weak.
+  ErrorEstimateOptions half_floor;
+  half_floor.alignment_floor_px = 0.02;
+  const LidarErrorEstimate half = EstimateLidarError(answer, local, &came_back, {}, false, units, half_floor);
+  EXPECT_NEAR(half.covariance_d(5, 5), std::pow(0.1 * unit_r, 2) + std::pow(unit_r, 2), 1e-15);
+  EXPECT_NE(half.verdict_reason.find("rz +0.10"), std::string::npos) << half.verdict_reason;
   // Edges that leave a direction free give no one-pixel covariance and no floor.
   LidarUncertainty degenerate = local;
   degenerate.edge_information_d(5, 5) = 0.0;

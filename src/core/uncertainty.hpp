@@ -118,12 +118,15 @@ struct ErrorEstimateOptions {
   double good_translation_m = 0.01;
   double good_rotation_rad = 0.2 * 3.14159265358979323846 / 180.0;
   // The floor's RMS misalignment of the edges (pixels; 0: no floor). With
-  // exact odometry the simulated RobotCar and trinocular answers erred by
-  // 0.05-0.12 px, along directions the edges barely show; 0.02 px brought 17
-  // of their 18 errors inside the 95 % ellipsoid (10 without) and kept every
-  // `good` verdict; 0.03 px turned most of them `weak` (BENCHMARK.md, "Does
-  // the sigma cover the error?").
-  double alignment_floor_px = 0.02;
+  // exact odometry the simulated RobotCar answers erred by 0.06-0.10 px on the
+  // three benchmark worlds and by 0.05-0.21 px on seven others and other
+  // sensor settings, along directions the edges barely show. 0.02 px, fitted
+  // to the three, left 10 of 20 errors on worlds 4-7 and the settings outside
+  // the 95 % ellipsoid; 0.04 px, chosen there, 2 of 20, and 0 of 6 on worlds
+  // 8-10 made after the choice (0.02 px: 2 of 6). The price: no push-broom
+  // answer there is `good` (its tilt's 2 sigma exceeds 0.2 deg) (BENCHMARK.md,
+  // "Does the sigma cover the error?", held-out worlds).
+  double alignment_floor_px = 0.04;
 };
 
 enum class Verdict { kGood, kWeak, kUnreliable };
