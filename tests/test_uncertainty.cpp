@@ -493,6 +493,7 @@ TEST(ErrorEstimate, APixelFloorAlongWhatTheEdgesShowLeast) {
   half_floor.alignment_floor_px = 0.02;
   const LidarErrorEstimate half = EstimateLidarError(answer, local, &came_back, {}, false, units, half_floor);
   EXPECT_NEAR(half.covariance_d(5, 5), std::pow(0.1 * unit_r, 2) + std::pow(unit_r, 2), 1e-15);
+  EXPECT_EQ(half.verdict, Verdict::kWeak);
   EXPECT_NE(half.verdict_reason.find("rz +0.10"), std::string::npos) << half.verdict_reason;
   // Edges that leave a direction free give no one-pixel covariance and no floor.
   LidarUncertainty degenerate = local;
