@@ -357,6 +357,39 @@ TEST(Alternating, AdaptiveScheduleSkipsSettledAlternationsAndEndsWhereTheFixedOn
   EXPECT_NE(adaptive.termination.find("schedule position"), std::string::npos) << adaptive.termination;
 }
 
+// A coarser stage counts as settled at moves as many times larger as its steps
+// are than the last stage's: 3 stages with step scales 1, 0.3 and 0.1 settle
+// at 10, 3 and 1 x (settle_factor x the stop thresholds).
+TEST(Alternating, CoarseStagesSettleAtLargerMoves) {
+  CalibrationOptions calibration;
+  calibration.stages = {{1.0, 0.004, 2}, {0.3, 0.0015, 1}, {0.1, 0.0, 1}};
+  calibration.alternating.max_alternations = 40;
+  calibration.alternating.stage_alternations = 20;
+  calibration.alternating.skip_settled = true;
+  const AlternatingOptions options = AlternatingOptionsFor(calibration);
+  ASSERT_EQ(options.stage_starts, (std::vector<int>{7, 14}));
+  EXPECT_NEAR(options.StageCoarseness(0), 10.0, 1e-12);
+  EXPECT_NEAR(options.StageCoarseness(6), 10.0, 1e-12);
+  EXPECT_NEAR(options.StageCoarseness(7), 3.0, 1e-12);
+  EXPECT_DOUBLE_EQ(options.StageCoarseness(14), 1.0);
+  EXPECT_DOUBLE_EQ(options.StageCoarseness(39), 1.0);
+  EXPECT_DOUBLE_EQ(options.StageCoarseness(100), 1.0);  // past the schedule: the last stage
+  const double t = options.settle_factor * options.stop_translation_m;
+  const double r = options.settle_factor * options.stop_rotation_rad;
+  // Moves of 5 x the last stage's threshold: settled in the first two stages, not in the last.
+  EXPECT_TRUE(options.Settled(3, 5.0 * t, 5.0 * r));
+  EXPECT_FALSE(options.Settled(8, 5.0 * t, 5.0 * r));
+  EXPECT_TRUE(options.Settled(8, 2.9 * t, 2.9 * r));
+  EXPECT_FALSE(options.Settled(15, 1.1 * t, 0.5 * r));
+  EXPECT_FALSE(options.Settled(15, 0.5 * t, 1.1 * r));
+  EXPECT_TRUE(options.Settled(15, t, r));
+  EXPECT_FALSE(options.Settled(3, 11.0 * t, 0.0));
+  // Without step scales (the thread backend's own tests) every stage settles alike.
+  AlternatingOptions plain;
+  EXPECT_DOUBLE_EQ(plain.StageCoarseness(0), 1.0);
+  EXPECT_FALSE(plain.Settled(0, 2.0 * t, 0.0));
+}
+
 // The calibration's stages give the schedule's stage starts: 3 stages over 20 alternations begin at 0, 7, 14.
 TEST(Alternating, StageStartsFollowTheStagesSpread) {
   CalibrationOptions options;

@@ -452,7 +452,7 @@ TEST_F(CalibrateOnSimulation, CliSettingFillsTheOptionsNotGivenAndRefusesARigWit
   const std::string border = std::to_string(static_cast<int>(std::lround(0.0375 * widest)));
   EXPECT_EQ(setting, "push-broom-drifting: --range-split 6 --thin 2 --lower-solver lbfgs --refresh-border 3.75% "
                      "--motion-correction turn,drive-scale --alternations 40 --stage-alternations 20 "
-                     "--alternation-schedule adaptive");
+                     "--alternation-schedule adaptive --stop-rotation 0.002");
   // The options the command line gave keep their values; the setting's are in force.
   EXPECT_EQ(settings["swathe_length_m"].as<std::string>(), "12");
   EXPECT_EQ(settings["refresh_border_px"].as<std::string>(), border);
@@ -490,7 +490,7 @@ TEST_F(CalibrateOnSimulation, CliSettingFillsTheOptionsNotGivenAndRefusesARigWit
             "push-broom: --swathe-length 30 --range-split 6 --thin 2 --lower-solver lbfgs --image-highpass 0.0234 "
             "--refresh-border 3.75% --scheme joint --stages 1:0.02:1,1:0.004:2,0.3:0.0015:1,0.1:0:1 "
             "--run-radius-translation 0.3 --run-radius-rotation 6 --alternations 40 --stage-alternations 20 "
-            "--alternation-schedule adaptive");
+            "--alternation-schedule adaptive --stop-rotation 0.002");
   EXPECT_EQ(joint_settings["scheme"].as<std::string>(), "joint");
   EXPECT_EQ(joint_settings["run_radius"].as<std::string>(), "0.3 m, 6 deg from each run's start (0 = no limit)");
   // On its 4 frames the preset's schedule runs without its wide stages, and the result says so.
@@ -508,6 +508,8 @@ TEST_F(CalibrateOnSimulation, CliSettingFillsTheOptionsNotGivenAndRefusesARigWit
   const YAML::Node alt_settings = alt_result["settings"];
   EXPECT_EQ(alt_settings["alternations_max"].as<std::string>(), "40");
   EXPECT_EQ(alt_settings["alternation_schedule"].as<std::string>().rfind("adaptive (", 0), 0u);
+  EXPECT_EQ(alt_settings["alternation_stop"].as<std::string>(),
+            "both levels move, and disagree, by less than 0.0002 m and 0.002 deg");
   EXPECT_EQ(alt_settings["intensity_highpass"].as<std::string>(), "0.0234 of the image width");
   // With the odometry's scale given, the drifting setting does not estimate the drive's scale again.
   YAML::Node scaled_result;

@@ -245,7 +245,7 @@ TEST_F(ExperimentCli, SettingFillsTheOptionsNotGiven) {
       << ReadText(log);
   const std::string words =
       "--range-split 6 --thin 2 --lower-solver lbfgs --refresh-border 3.75% --motion-correction turn,drive-scale "
-      "--alternations 40 --stage-alternations 20 --alternation-schedule adaptive";
+      "--alternations 40 --stage-alternations 20 --alternation-schedule adaptive --stop-rotation 0.002";
   EXPECT_NE(ReadText(log).find("--setting push-broom-drifting: " + words + " (refresh border 12 px)"),
             std::string::npos)
       << ReadText(log);

@@ -985,16 +985,17 @@ void AddAlternatingOptions(CLI::App* command, AlternatingArguments* alt) {
   command->add_option("--stage-alternations", alt->stage_alternations,
                       "alt: spread the coarse-to-fine stages (--stages) over the first N alternations; the "
                       "rest stay in the sharp stage and only tighten the penalty until the two levels agree "
-                      "(0: over all). With --alternations 40 --stage-alternations 20 on the push-broom setting "
-                      "the levels settle within 0.001 deg after 26-32 alternations without moving the answer "
-                      "(docs/findings.md)")
+                      "(0: over all). With --alternations 40 --stage-alternations 20 and the adaptive schedule "
+                      "of the push-broom settings the levels settled below the stop thresholds after 12-17 "
+                      "alternations (schedule positions 27-30) on the simulated drives (docs/findings.md)")
       ->check(CLI::Range(0, 10000))
       ->capture_default_str();
   command->add_option("--alternation-schedule", alt->schedule,
                       "alt: fixed (the paper: each alternation takes one penalty step and its share of the stages) "
-                      "or adaptive (an alternation in which both levels moved less than 10 x the stop thresholds "
-                      "is not repeated: the run goes on at the next stage, or in the last stage tightens the penalty "
-                      "two steps; the push-broom presets)")
+                      "or adaptive (an alternation in which both levels moved less than 10 x the stop thresholds, "
+                      "times how many times the last stage's steps its stage's are (--stages 1:..,0.1:..: 10 x in "
+                      "the first), is not repeated: the run goes on at the next stage, or in the last stage "
+                      "tightens the penalty two steps; the push-broom presets)")
       ->check(CLI::IsMember({"fixed", "adaptive"}))
       ->capture_default_str();
   command->add_option("--shrink", alt->shrink, "alt: covariance factor w of the penalty, P(i+1) = w P(i), in (0, 1)")

@@ -54,6 +54,8 @@ struct ExperimentArguments {
   int alternations = kCoreDefaults.alternating.max_alternations;
   int stage_alternations = kCoreDefaults.alternating.stage_alternations;  // alt: stages over the first N (0 = all)
   std::string schedule = kCoreDefaults.alternating.skip_settled ? "adaptive" : "fixed";  // alt: fixed | adaptive
+  double stop_translation_m = kCoreDefaults.alternating.stop_translation_m;                // alt: early stop
+  double stop_rotation_deg = DegreesFromRadians(kCoreDefaults.alternating.stop_rotation_rad);
   // alt: where the penalty's sigmas hold.
   std::string penalty_frame = PenaltyFrameName(kCoreDefaults.alternating.penalty_frame);
   int threads = kCoreDefaults.threads;
@@ -261,6 +263,8 @@ int MakeRunOptions(const ExperimentArguments& args, CalibrationOptions* options)
   options->alternating.max_alternations = args.alternations;
   options->alternating.stage_alternations = args.stage_alternations;
   options->alternating.skip_settled = args.schedule == "adaptive";
+  options->alternating.stop_translation_m = args.stop_translation_m;
+  options->alternating.stop_rotation_rad = RadiansFromDegrees(args.stop_rotation_deg);
   ParsePenaltyFrame(args.penalty_frame, &options->alternating.penalty_frame);  // the CLI checked the name
   if (!AlternatingOptionsFor(*options).IsValid(&why)) {
     spdlog::error("invalid alt options: {}", why);
@@ -675,6 +679,14 @@ CommandRunner AddExperimentCommand(CLI::App& app) {
   command->add_option("--alternation-schedule", args->schedule,
                       "alt: fixed (the paper) or adaptive (settled alternations end their stage; as calibrate's)")
       ->check(CLI::IsMember({"fixed", "adaptive"}))
+      ->capture_default_str();
+  command->add_option("--stop-translation", args->stop_translation_m,
+                      "alt: stop early once both levels move, and disagree, by less than this many metres (and "
+                      "--stop-rotation; as calibrate's)")
+      ->check(kNonNegative)
+      ->capture_default_str();
+  command->add_option("--stop-rotation", args->stop_rotation_deg, "alt: the rotation threshold of the early stop, degrees")
+      ->check(kNonNegative)
       ->capture_default_str();
   command->add_option("--penalty-frame", args->penalty_frame,
                       "alt: where the penalty's sigmas hold, lidar or camera (as calibrate's)")

@@ -40,6 +40,18 @@ bool AlternatingOptions::IsValid(std::string* why) const {
 
 const char* PenaltyFrameName(PenaltyFrame frame) { return EnumName(kPenaltyFrameNames, frame); }
 
+double AlternatingOptions::StageCoarseness(int alternation) const {
+  if (lower_step_scale.empty() || !(lower_step_scale.back() > 0.0) || alternation < 0) return 1.0;
+  const auto position = static_cast<std::size_t>(alternation);
+  const double here = position < lower_step_scale.size() ? lower_step_scale[position] : lower_step_scale.back();
+  return std::max(1.0, here / lower_step_scale.back());
+}
+
+bool AlternatingOptions::Settled(int alternation, double moved_translation_m, double moved_rotation_rad) const {
+  const double factor = settle_factor * StageCoarseness(alternation);
+  return moved_translation_m <= factor * stop_translation_m && moved_rotation_rad <= factor * stop_rotation_rad;
+}
+
 bool ParsePenaltyFrame(const std::string& name, PenaltyFrame* frame) {
   return ParseEnumName(kPenaltyFrameNames, name, frame);
 }
@@ -386,8 +398,7 @@ std::string StopReason(const AlternatingOptions& options, int alternation, int r
 // The schedule position after `alternation`: the next one, or with skip_settled
 // and levels that barely moved, the next stage's first (the last stage: two on).
 int NextAlternation(const AlternatingOptions& options, int alternation, const Change& change) {
-  const bool settled = change.translation_m <= options.settle_factor * options.stop_translation_m &&
-                       change.rotation_rad <= options.settle_factor * options.stop_rotation_rad;
+  const bool settled = options.Settled(alternation, change.translation_m, change.rotation_rad);
   if (!options.skip_settled || !settled || alternation == 0) return alternation + 1;
   for (const int start : options.stage_starts) {
     if (start > alternation) return start;

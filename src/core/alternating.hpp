@@ -70,11 +70,12 @@ struct AlternatingOptions {
   // begins, ascending; read only with skip_settled.
   std::vector<int> stage_starts;
   // Adaptive schedule: an alternation in which both levels moved by less than
-  // settle_factor x the stop thresholds is not repeated with the same stage and
-  // a barely tighter penalty. Before the last stage the schedule goes on at the
-  // next stage's first position; in the last stage it advances two positions,
-  // so the penalty tightens twice as fast while the levels follow it without
-  // moving. Off: the paper's one position per alternation.
+  // settle_factor x the stop thresholds (x the stage's coarseness, Settled) is
+  // not repeated with the same stage and a barely tighter penalty. Before the
+  // last stage the schedule goes on at the next stage's first position; in the
+  // last stage it advances two positions, so the penalty tightens twice as fast
+  // while the levels follow it without moving. Off: the paper's one position
+  // per alternation.
   bool skip_settled = false;
   double settle_factor = 10.0;
   // Simplex search of the lower level (the paper: 200 iterations). Its initial
@@ -108,6 +109,15 @@ struct AlternatingOptions {
   double time_budget_s = 0.0;
 
   bool IsValid(std::string* why = nullptr) const;
+  // How much coarser than the schedule's last position the stage at
+  // `alternation` searches: the ratio of their lower_step_scale (at least 1;
+  // 1 without step scales).
+  double StageCoarseness(int alternation) const;
+  // The adaptive schedule's test: both levels moved less than settle_factor x
+  // the stop thresholds x StageCoarseness(alternation) in that alternation. A
+  // stage whose steps are k times the last stage's resolves the answer only k
+  // times as coarsely, and the stages after it refine what it leaves.
+  bool Settled(int alternation, double moved_translation_m, double moved_rotation_rad) const;
 };
 
 // One lower-level problem (eq. 13) as a backend receives it.

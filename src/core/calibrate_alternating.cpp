@@ -339,10 +339,14 @@ CalibrationOutcome FinishAlternating(AlternatingSetup& setup, const AlternatingR
                                      " rad x the stage's step scale; penalty sigma)";
   }
   result.settings["alternations_max"] = std::to_string(alternating.max_alternations);
+  result.settings["alternation_stop"] = "both levels move, and disagree, by less than " +
+                                        NumberText(alternating.stop_translation_m) + " m and " +
+                                        NumberText(DegreesFromRadians(alternating.stop_rotation_rad)) + " deg";
   result.settings["alternation_schedule"] =
       alternating.skip_settled
           ? "adaptive (an alternation whose levels moved less than " + NumberText(alternating.settle_factor) +
-                " x the stop thresholds ends its stage; in the last stage the penalty then tightens two steps)"
+                " x the stop thresholds, times how many times the last stage's steps its stage's are, ends its "
+                "stage; in the last stage the penalty then tightens two steps)"
           : std::string("fixed (one penalty step and the stages' share per alternation, the paper)");
   result.settings["penalty_sigma0"] = NumberText(alternating.initial_sigma_translation_m) + " m, " +
                                       NumberText(alternating.initial_sigma_rotation_rad) + " rad";
