@@ -357,16 +357,22 @@ TEST(Alternating, AdaptiveScheduleSkipsSettledAlternationsAndEndsWhereTheFixedOn
   EXPECT_NE(adaptive.termination.find("schedule position"), std::string::npos) << adaptive.termination;
 }
 
+// The push-broom presets' schedule: 3 stages spread over 20 of at most 40
+// alternations, adaptive.
+CalibrationOptions PushBroomSchedule() {
+  CalibrationOptions options;
+  options.stages = {{1.0, 0.004, 2}, {0.3, 0.0015, 1}, {0.1, 0.0, 1}};
+  options.alternating.max_alternations = 40;
+  options.alternating.stage_alternations = 20;
+  options.alternating.skip_settled = true;
+  return options;
+}
+
 // A coarser stage counts as settled at moves as many times larger as its steps
 // are than the last stage's: 3 stages with step scales 1, 0.3 and 0.1 settle
 // at 10, 3 and 1 x (settle_factor x the stop thresholds).
 TEST(Alternating, CoarseStagesSettleAtLargerMoves) {
-  CalibrationOptions calibration;
-  calibration.stages = {{1.0, 0.004, 2}, {0.3, 0.0015, 1}, {0.1, 0.0, 1}};
-  calibration.alternating.max_alternations = 40;
-  calibration.alternating.stage_alternations = 20;
-  calibration.alternating.skip_settled = true;
-  const AlternatingOptions options = AlternatingOptionsFor(calibration);
+  const AlternatingOptions options = AlternatingOptionsFor(PushBroomSchedule());
   ASSERT_EQ(options.stage_starts, (std::vector<int>{7, 14}));
   EXPECT_NEAR(options.StageCoarseness(0), 10.0, 1e-12);
   EXPECT_NEAR(options.StageCoarseness(6), 10.0, 1e-12);
@@ -392,12 +398,7 @@ TEST(Alternating, CoarseStagesSettleAtLargerMoves) {
 
 // The calibration's stages give the schedule's stage starts: 3 stages over 20 alternations begin at 0, 7, 14.
 TEST(Alternating, StageStartsFollowTheStagesSpread) {
-  CalibrationOptions options;
-  options.stages = {{1.0, 0.004, 2}, {0.3, 0.0015, 1}, {0.1, 0.0, 1}};
-  options.alternating.max_alternations = 40;
-  options.alternating.stage_alternations = 20;
-  options.alternating.skip_settled = true;
-  const AlternatingOptions alternating = AlternatingOptionsFor(options);
+  const AlternatingOptions alternating = AlternatingOptionsFor(PushBroomSchedule());
   EXPECT_TRUE(alternating.skip_settled);
   EXPECT_EQ(alternating.stage_starts, (std::vector<int>{7, 14}));
   EXPECT_EQ(alternating.min_alternations, 15);
