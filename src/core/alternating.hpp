@@ -115,8 +115,9 @@ struct AlternatingOptions {
   double StageCoarseness(int alternation) const;
   // The adaptive schedule's test: both levels moved less than settle_factor x
   // the stop thresholds x StageCoarseness(alternation) in that alternation. A
-  // stage whose steps are k times the last stage's resolves the answer only k
-  // times as coarsely, and the stages after it refine what it leaves.
+  // stage whose steps are k times the last stage's resolves the answer k times
+  // more coarsely than the last stage, and the stages after it refine what it
+  // leaves.
   bool Settled(int alternation, double moved_translation_m, double moved_rotation_rad) const;
 };
 
