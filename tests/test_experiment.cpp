@@ -193,6 +193,14 @@ TEST_F(ExperimentCli, BadOptionsExitWithTwo) {
   // Help explains the protocol.
   EXPECT_EQ(RunCli("experiment --help", log), 0);
   EXPECT_NE(ReadText(log).find("--perturb-translation"), std::string::npos);
+  // calibrate's alt options, every one of them (one definition for both commands).
+  for (const char* option : {"--alternations", "--stage-alternations", "--alternation-schedule", "--shrink",
+                             "--penalty-frame", "--sigma0-translation", "--sigma0-rotation", "--stop-translation",
+                             "--stop-rotation", "--camera-sigma-translation", "--camera-sigma-rotation"}) {
+    EXPECT_NE(ReadText(log).find(option), std::string::npos) << option;
+  }
+  EXPECT_EQ(RunCli("experiment" + dataset + " --shrink 1.5 --output " + (Root() / "bad8").string(), log), 2);
+  EXPECT_NE(ReadText(log).find("--shrink"), std::string::npos) << ReadText(log);
 }
 
 TEST_F(ExperimentCli, NothingCalibratedExitsWithOne) {

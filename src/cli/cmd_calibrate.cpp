@@ -42,38 +42,6 @@ namespace scenecal::cli {
 
 namespace {
 
-// The alt scheme's options (CalibrationOptions::alternating), with the core's
-// defaults; angles in degrees as the command line takes them.
-struct AlternatingArguments {
-  std::string backend = "threads";  // threads | mpi
-  int alternations = kCoreDefaults.alternating.max_alternations;
-  int stage_alternations = kCoreDefaults.alternating.stage_alternations;
-  double shrink = kCoreDefaults.alternating.covariance_shrink;
-  std::string penalty_frame = PenaltyFrameName(kCoreDefaults.alternating.penalty_frame);
-  // Not given: by the lower solver (the paper's 5 m / 5 rad with the simplex, looser with lbfgs).
-  std::optional<double> sigma0_translation_m;
-  std::optional<double> sigma0_rotation_rad;
-  std::string schedule = kCoreDefaults.alternating.skip_settled ? "adaptive" : "fixed";
-  double stop_translation_m = kCoreDefaults.alternating.stop_translation_m;
-  double stop_rotation_deg = DegreesFromRadians(kCoreDefaults.alternating.stop_rotation_rad);
-  double camera_sigma_translation_m = kCoreDefaults.alternating.default_camera_sigma_translation_m;
-  double camera_sigma_rotation_deg = DegreesFromRadians(kCoreDefaults.alternating.default_camera_sigma_rotation_rad);
-
-  void ApplyTo(AlternatingSettings* settings) const {
-    settings->max_alternations = alternations;
-    settings->stage_alternations = stage_alternations;
-    settings->covariance_shrink = shrink;
-    ParsePenaltyFrame(penalty_frame, &settings->penalty_frame);  // the CLI checked the name
-    settings->initial_sigma_translation_m = sigma0_translation_m.value_or(0.0);
-    settings->initial_sigma_rotation_rad = sigma0_rotation_rad.value_or(0.0);
-    settings->stop_translation_m = stop_translation_m;
-    settings->stop_rotation_rad = RadiansFromDegrees(stop_rotation_deg);
-    settings->skip_settled = schedule == "adaptive";
-    settings->default_camera_sigma_translation_m = camera_sigma_translation_m;
-    settings->default_camera_sigma_rotation_rad = RadiansFromDegrees(camera_sigma_rotation_deg);
-  }
-};
-
 struct CalibrateArguments {
   std::string dataset;
   std::string output;
@@ -103,6 +71,7 @@ struct CalibrateArguments {
   double basin_offset_deg = 1.0;
   std::string odometry_scale_sigma = "auto";  // --odometry-scale-sigma: percent, or auto (from the trajectory's source)
   AlternatingArguments alternating;  // --scheme alt
+  std::string backend = "threads";   // --backend: where alt's lower levels run, threads | mpi
   ConfigArguments config;            // --config, --setting
   AppliedConfiguration applied;      // what the preset set (ApplyConfiguration)
   CLI::App* command = nullptr;       // its options: to tell set ones from defaults, and for the result
@@ -175,7 +144,7 @@ int MakeCalibrationOptions(const CalibrateArguments& args, CalibrationOptions* o
     spdlog::error("invalid options: {}", why);
     return kExitInvalidInput;
   }
-  if (args.alternating.backend == "mpi" && options->scheme != CalibrationScheme::kAlt) {
+  if (args.backend == "mpi" && options->scheme != CalibrationScheme::kAlt) {
     spdlog::error("--backend mpi distributes the lower levels of --scheme alt; it does not apply to --scheme {}",
                   args.scheme);
     return kExitInvalidInput;
@@ -797,7 +766,7 @@ int RunCalibration(CalibrateArguments& args, ProcessGroup& group) {
 // rank that fails ends every rank at once: the others would otherwise wait in
 // a collective for it forever.
 int Run(CalibrateArguments& args) {
-  ProcessGroup group(args.scheme == "alt" ? args.alternating.backend : "threads");
+  ProcessGroup group(args.scheme == "alt" ? args.backend : "threads");
   if (!group.distributed()) return RunCalibration(args, group);
   if (!group.IsRoot()) spdlog::set_level(spdlog::level::warn);
   int exit_code = kExitFailure;
@@ -972,70 +941,6 @@ void AddAfterCalibrationOptions(CLI::App* command, CalibrateArguments* args) {
       ->configurable(false);  // an output path: on the command line only
 }
 
-// The alt scheme's options (the lower levels' backend, the alternations, the penalty).
-void AddAlternatingOptions(CLI::App* command, AlternatingArguments* alt) {
-  command->add_option("--backend", alt->backend,
-                      "Where the lower levels of --scheme alt run: threads (this process) or mpi (the ranks of "
-                      "mpirun; every rank reads the dataset, rank 0 writes the result)")
-      ->check(CLI::IsMember({"threads", "mpi"}))
-      ->capture_default_str();
-  command->add_option("--alternations", alt->alternations, "alt: maximum number of alternations (the paper: 20)")
-      ->check(CLI::Range(1, 10000))
-      ->capture_default_str();
-  command->add_option("--stage-alternations", alt->stage_alternations,
-                      "alt: spread the coarse-to-fine stages (--stages) over the first N alternations; the "
-                      "rest stay in the sharp stage and only tighten the penalty until the two levels agree "
-                      "(0: over all). With --alternations 40 --stage-alternations 20 and the adaptive schedule "
-                      "of the push-broom settings the levels settled below the stop thresholds after 12-17 "
-                      "alternations (schedule positions 27-30) on the simulated drives (docs/findings.md)")
-      ->check(CLI::Range(0, 10000))
-      ->capture_default_str();
-  command->add_option("--alternation-schedule", alt->schedule,
-                      "alt: fixed (the paper: each alternation takes one penalty step and its share of the stages) "
-                      "or adaptive (an alternation in which both levels moved less than 10 x the stop thresholds, "
-                      "times how many times the last stage's steps its stage's are (--stages 1:..,0.1:..: 10 x in "
-                      "the first), is not repeated: the run goes on at the next stage, or in the last stage "
-                      "tightens the penalty two steps; the push-broom presets)")
-      ->check(CLI::IsMember({"fixed", "adaptive"}))
-      ->capture_default_str();
-  command->add_option("--shrink", alt->shrink, "alt: covariance factor w of the penalty, P(i+1) = w P(i), in (0, 1)")
-      ->check(CLI::Range(1e-6, 0.999999))
-      ->capture_default_str();
-  command->add_option("--penalty-frame", alt->penalty_frame,
-                      "alt: where the penalty's sigmas hold: lidar (the lidar's position and its turn about its own "
-                      "origin) or camera (the camera-frame difference itself, where a turn of a lidar metres away "
-                      "also pays its lever-arm shift at the translation sigma and is held back)")
-      ->check(CLI::IsMember({"lidar", "camera"}))
-      ->capture_default_str();
-  command->add_option("--sigma0-translation", alt->sigma0_translation_m,
-                      "alt: initial penalty sigma, metres. Default: 5 (the paper) with the simplex lower level, 500 "
-                      "with --lower-solver lbfgs, whose lower levels the paper's value already holds near the upper "
-                      "estimate where the cost is flat (docs/findings.md, \"The alternating scheme's penalty holds "
-                      "in the lidar frame\")")
-      ->check(kPositive);
-  command->add_option("--sigma0-rotation", alt->sigma0_rotation_rad,
-                      "alt: initial penalty sigma, radians. Default: 5 (the paper) with the simplex, 500 with "
-                      "--lower-solver lbfgs")
-      ->check(kPositive);
-  command->add_option("--stop-translation", alt->stop_translation_m,
-                      "alt: stop early once both levels move, and disagree, by less than this many metres (and "
-                      "--stop-rotation)")
-      ->check(kNonNegative)
-      ->capture_default_str();
-  command
-      ->add_option("--stop-rotation", alt->stop_rotation_deg, "alt: the rotation threshold of the early stop, degrees")
-      ->check(kNonNegative)
-      ->capture_default_str();
-  command->add_option("--camera-sigma-translation", alt->camera_sigma_translation_m,
-                      "alt: 1-sigma of known camera transforms that rig.yaml gives no T_base_camera_sigma for, metres")
-      ->check(kNonNegative)
-      ->capture_default_str();
-  command->add_option("--camera-sigma-rotation", alt->camera_sigma_rotation_deg,
-                      "alt: the same for rotation, degrees")
-      ->check(kNonNegative)
-      ->capture_default_str();
-}
-
 }  // namespace
 
 CommandRunner AddCalibrateCommand(CLI::App& app) {
@@ -1067,6 +972,11 @@ CommandRunner AddCalibrateCommand(CLI::App& app) {
   AddStartOptions(command, args.get());
   AddAfterCalibrationOptions(command, args.get());
   AddAlternatingOptions(command, &args->alternating);
+  command->add_option("--backend", args->backend,
+                      "Where the lower levels of --scheme alt run: threads (this process) or mpi (the ranks of "
+                      "mpirun; every rank reads the dataset, rank 0 writes the result)")
+      ->check(CLI::IsMember({"threads", "mpi"}))
+      ->capture_default_str();
   return [args] {
     args->applied = ApplyConfiguration(args->command, args->config);
     return Run(*args);

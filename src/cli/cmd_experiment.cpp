@@ -51,13 +51,7 @@ struct ExperimentArguments {
   double perturb_rotation_deg = 3.0;
   std::vector<std::string> schemes = {"once", "joint", "alt"};
   std::vector<std::string> metrics = {"nid", "mi"};
-  int alternations = kCoreDefaults.alternating.max_alternations;
-  int stage_alternations = kCoreDefaults.alternating.stage_alternations;  // alt: stages over the first N (0 = all)
-  std::string schedule = kCoreDefaults.alternating.skip_settled ? "adaptive" : "fixed";  // alt: fixed | adaptive
-  double stop_translation_m = kCoreDefaults.alternating.stop_translation_m;                // alt: early stop
-  double stop_rotation_deg = DegreesFromRadians(kCoreDefaults.alternating.stop_rotation_rad);
-  // alt: where the penalty's sigmas hold.
-  std::string penalty_frame = PenaltyFrameName(kCoreDefaults.alternating.penalty_frame);
+  AlternatingArguments alternating;  // --scheme alt's options, as calibrate's
   int threads = kCoreDefaults.threads;
   std::string image_size;     // WxH; empty: the simulator's default
   double distance_m = 380.0;  // simulated drive length
@@ -260,12 +254,7 @@ int MakeRunOptions(const ExperimentArguments& args, CalibrationOptions* options)
     spdlog::error("invalid options: {}", why);
     return kExitInvalidInput;
   }
-  options->alternating.max_alternations = args.alternations;
-  options->alternating.stage_alternations = args.stage_alternations;
-  options->alternating.skip_settled = args.schedule == "adaptive";
-  options->alternating.stop_translation_m = args.stop_translation_m;
-  options->alternating.stop_rotation_rad = RadiansFromDegrees(args.stop_rotation_deg);
-  ParsePenaltyFrame(args.penalty_frame, &options->alternating.penalty_frame);  // the CLI checked the name
+  args.alternating.ApplyTo(&options->alternating);
   if (!AlternatingOptionsFor(*options).IsValid(&why)) {
     spdlog::error("invalid alt options: {}", why);
     return kExitInvalidInput;
@@ -506,10 +495,11 @@ report::ExperimentReportData MakeReportData(const ExperimentArguments& args, con
   data.settings["metrics"] = fmt::format("{}", fmt::join(args.metrics, ", "));
   data.settings["scenes per camera"] = args.cost.scenes;
   data.settings["swathe length"] = fmt::format("{} m", args.cost.swathe_length_m);
+  const AlternatingArguments& alt = args.alternating;
   data.settings["alternations (alt)"] =
-      std::to_string(args.alternations) +
-      (args.stage_alternations > 0 ? ", the stages over the first " + std::to_string(args.stage_alternations) : "") +
-      "; penalty in the " + args.penalty_frame + " frame; " + args.schedule + " schedule";
+      std::to_string(alt.alternations) +
+      (alt.stage_alternations > 0 ? ", the stages over the first " + std::to_string(alt.stage_alternations) : "") +
+      "; penalty in the " + alt.penalty_frame + " frame; " + alt.schedule + " schedule";
   data.settings["lower solver"] = args.lower_solver + " (" + BinningName(options.cost.histogram.binning) + " binning)";
   if (options.lower_solver == LowerSolver::kLbfgs) {
     data.settings["L-BFGS iterations per run"] = std::to_string(options.gradient.max_iterations);
@@ -668,30 +658,7 @@ CommandRunner AddExperimentCommand(CLI::App& app) {
       ->delimiter(',')
       ->check(CLI::IsMember({"nid", "mi"}))
       ->capture_default_str();
-  command->add_option("--alternations", args->alternations, "alt: maximum number of alternations (the paper: 20)")
-      ->check(CLI::Range(1, 10000))
-      ->capture_default_str();
-  command->add_option("--stage-alternations", args->stage_alternations,
-                      "alt: spread the coarse-to-fine stages over the first N alternations, the rest only tighten "
-                      "the penalty (0: over all; as calibrate's)")
-      ->check(CLI::Range(0, 10000))
-      ->capture_default_str();
-  command->add_option("--alternation-schedule", args->schedule,
-                      "alt: fixed (the paper) or adaptive (settled alternations end their stage; as calibrate's)")
-      ->check(CLI::IsMember({"fixed", "adaptive"}))
-      ->capture_default_str();
-  command->add_option("--stop-translation", args->stop_translation_m,
-                      "alt: stop early once both levels move, and disagree, by less than this many metres (and "
-                      "--stop-rotation; as calibrate's)")
-      ->check(kNonNegative)
-      ->capture_default_str();
-  command->add_option("--stop-rotation", args->stop_rotation_deg, "alt: the rotation threshold of the early stop, degrees")
-      ->check(kNonNegative)
-      ->capture_default_str();
-  command->add_option("--penalty-frame", args->penalty_frame,
-                      "alt: where the penalty's sigmas hold, lidar or camera (as calibrate's)")
-      ->check(CLI::IsMember({"lidar", "camera"}))
-      ->capture_default_str();
+  AddAlternatingOptions(command, &args->alternating);
   command->add_option("--threads", args->threads, "Worker threads; 0 = all hardware threads")
       ->check(kNonNegative)
       ->capture_default_str();

@@ -387,4 +387,63 @@ void ApplyRunRadiusArguments(const RunRadiusArguments& args, CalibrationOptions*
   options->gradient.run_radius_rotation_rad = RadiansFromDegrees(args.rotation_deg);
 }
 
+// The alt scheme's options (the alternations, the penalty).
+void AddAlternatingOptions(CLI::App* command, AlternatingArguments* alt) {
+  command->add_option("--alternations", alt->alternations, "alt: maximum number of alternations (the paper: 20)")
+      ->check(CLI::Range(1, 10000))
+      ->capture_default_str();
+  command->add_option("--stage-alternations", alt->stage_alternations,
+                      "alt: spread the coarse-to-fine stages (--stages) over the first N alternations; the "
+                      "rest stay in the sharp stage and only tighten the penalty until the two levels agree "
+                      "(0: over all). With --alternations 40 --stage-alternations 20 and the adaptive schedule "
+                      "of the push-broom settings the levels settled below the stop thresholds after 12-17 "
+                      "alternations (schedule positions 27-30) on the simulated drives (docs/findings.md)")
+      ->check(CLI::Range(0, 10000))
+      ->capture_default_str();
+  command->add_option("--alternation-schedule", alt->schedule,
+                      "alt: fixed (the paper: each alternation takes one penalty step and its share of the stages) "
+                      "or adaptive (an alternation in which both levels moved less than 10 x the stop thresholds, "
+                      "times how many times the last stage's steps its stage's are (--stages 1:..,0.1:..: 10 x in "
+                      "the first), is not repeated: the run goes on at the next stage, or in the last stage "
+                      "tightens the penalty two steps; the push-broom presets)")
+      ->check(CLI::IsMember({"fixed", "adaptive"}))
+      ->capture_default_str();
+  command->add_option("--shrink", alt->shrink, "alt: covariance factor w of the penalty, P(i+1) = w P(i), in (0, 1)")
+      ->check(CLI::Range(1e-6, 0.999999))
+      ->capture_default_str();
+  command->add_option("--penalty-frame", alt->penalty_frame,
+                      "alt: where the penalty's sigmas hold: lidar (the lidar's position and its turn about its own "
+                      "origin) or camera (the camera-frame difference itself, where a turn of a lidar metres away "
+                      "also pays its lever-arm shift at the translation sigma and is held back)")
+      ->check(CLI::IsMember({"lidar", "camera"}))
+      ->capture_default_str();
+  command->add_option("--sigma0-translation", alt->sigma0_translation_m,
+                      "alt: initial penalty sigma, metres. Default: 5 (the paper) with the simplex lower level, 500 "
+                      "with --lower-solver lbfgs, whose lower levels the paper's value already holds near the upper "
+                      "estimate where the cost is flat (docs/findings.md, \"The alternating scheme's penalty holds "
+                      "in the lidar frame\")")
+      ->check(kPositive);
+  command->add_option("--sigma0-rotation", alt->sigma0_rotation_rad,
+                      "alt: initial penalty sigma, radians. Default: 5 (the paper) with the simplex, 500 with "
+                      "--lower-solver lbfgs")
+      ->check(kPositive);
+  command->add_option("--stop-translation", alt->stop_translation_m,
+                      "alt: stop early once both levels move, and disagree, by less than this many metres (and "
+                      "--stop-rotation)")
+      ->check(kNonNegative)
+      ->capture_default_str();
+  command
+      ->add_option("--stop-rotation", alt->stop_rotation_deg, "alt: the rotation threshold of the early stop, degrees")
+      ->check(kNonNegative)
+      ->capture_default_str();
+  command->add_option("--camera-sigma-translation", alt->camera_sigma_translation_m,
+                      "alt: 1-sigma of known camera transforms that rig.yaml gives no T_base_camera_sigma for, metres")
+      ->check(kNonNegative)
+      ->capture_default_str();
+  command->add_option("--camera-sigma-rotation", alt->camera_sigma_rotation_deg,
+                      "alt: the same for rotation, degrees")
+      ->check(kNonNegative)
+      ->capture_default_str();
+}
+
 }  // namespace scenecal::cli

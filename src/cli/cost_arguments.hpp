@@ -6,6 +6,7 @@
 #pragma once
 
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -84,6 +85,40 @@ struct RunRadiusArguments {
 };
 void AddRunRadiusOptions(CLI::App* command, RunRadiusArguments* args);
 void ApplyRunRadiusArguments(const RunRadiusArguments& args, CalibrationOptions* options);
+
+// The alt scheme's options (CalibrationOptions::alternating), with the core's
+// defaults; angles in degrees as the command line takes them. For calibrate
+// and experiment alike.
+struct AlternatingArguments {
+  int alternations = kCoreDefaults.alternating.max_alternations;
+  int stage_alternations = kCoreDefaults.alternating.stage_alternations;
+  double shrink = kCoreDefaults.alternating.covariance_shrink;
+  std::string penalty_frame = PenaltyFrameName(kCoreDefaults.alternating.penalty_frame);
+  // Not given: by the lower solver (the paper's 5 m / 5 rad with the simplex, looser with lbfgs).
+  std::optional<double> sigma0_translation_m;
+  std::optional<double> sigma0_rotation_rad;
+  std::string schedule = kCoreDefaults.alternating.skip_settled ? "adaptive" : "fixed";
+  double stop_translation_m = kCoreDefaults.alternating.stop_translation_m;
+  double stop_rotation_deg = DegreesFromRadians(kCoreDefaults.alternating.stop_rotation_rad);
+  double camera_sigma_translation_m = kCoreDefaults.alternating.default_camera_sigma_translation_m;
+  double camera_sigma_rotation_deg = DegreesFromRadians(kCoreDefaults.alternating.default_camera_sigma_rotation_rad);
+
+  void ApplyTo(AlternatingSettings* settings) const {
+    settings->max_alternations = alternations;
+    settings->stage_alternations = stage_alternations;
+    settings->covariance_shrink = shrink;
+    ParsePenaltyFrame(penalty_frame, &settings->penalty_frame);  // the CLI checked the name
+    settings->initial_sigma_translation_m = sigma0_translation_m.value_or(0.0);
+    settings->initial_sigma_rotation_rad = sigma0_rotation_rad.value_or(0.0);
+    settings->stop_translation_m = stop_translation_m;
+    settings->stop_rotation_rad = RadiansFromDegrees(stop_rotation_deg);
+    settings->skip_settled = schedule == "adaptive";
+    settings->default_camera_sigma_translation_m = camera_sigma_translation_m;
+    settings->default_camera_sigma_rotation_rad = RadiansFromDegrees(camera_sigma_rotation_deg);
+  }
+};
+// Registers the alt options on `command` (values validated by CLI11).
+void AddAlternatingOptions(CLI::App* command, AlternatingArguments* alt);
 
 // The per-frame drift correction of `calibrate` (CalibrationOptions::motion_correction).
 struct MotionCorrectionArguments {
