@@ -1816,6 +1816,8 @@ TEST_F(CalibrateOnSimulation, BasinCheckRestartsAboutEachAxisAndComparesTheEnds)
     SCOPED_TRACE(i);
     const BasinRestart& stopped = stopped_checks[0].restarts[i];
     const BasinRestart& full = full_checks[0].restarts[i];
+    EXPECT_FALSE(full.came_back);  // nothing stops a run to convergence
+    EXPECT_EQ(stopped.came_back, stopped.evaluations < full.evaluations);
     if (stopped.evaluations < full.evaluations) {
       ++came_back;
       EXPECT_LE(stopped.translation_apart_m, loose.came_back_fraction * loose.agree_translation_m);

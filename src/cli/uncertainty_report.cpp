@@ -174,6 +174,8 @@ YAML::Node ReportBasinCheck(Calibrator& calibrator, double offset_deg, bool adop
       item["cost"] = restart.cost_end;
       item["cost_drop_standard_error"] = restart.cost_drop_standard_error;
       item["evaluations"] = restart.evaluations;
+      // Stopped once back near the answer: in the sigma it counts as the answer.
+      item["came_back"] = restart.came_back;
       const Vector6d end = TupleFromTransform(restart.T_base_lidar_end);
       item["T_base_lidar"] = Numbers(end.data(), 6);
       restarts.push_back(item);
@@ -295,7 +297,7 @@ void ReportErrorEstimate(const std::vector<LidarUncertainty>& estimates, const s
     lidar.covariance = estimate.covariance_tuple;
     entry["sigma_method"] = fmt::format(
         "covariance of the error = local (flat directions: half the flat range) + the basin check's restarts' "
-        "second moment about the answer{}{} + a floor of {} px RMS misalignment of the image edges (shared by "
+        "second moment about the answer (a restart that came back counting as the answer){}{} + a floor of {} px RMS misalignment of the image edges (shared by "
         "every scene){}; shares of its trace: local {:.2f}, basin {:.2f}, other model {:.2f}, floor {:.2f}, "
         "scale {:.2f}",
         check != nullptr && check->checked ? "" : " (no basin check ran)",

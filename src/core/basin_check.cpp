@@ -22,6 +22,28 @@ std::vector<std::vector<SceneEvaluation>> EvaluateEachScene(const std::vector<co
   return scenes;
 }
 
+// The joint cost (EvaluateJoint: the mean over the pairs with a used scene of
+// each pair's mean over its used scenes, summed in the same order) from
+// EvaluateEachScene's costs, so that an end's cost and its scenes' come from
+// one evaluation.
+double JointFromScenes(const std::vector<std::vector<SceneEvaluation>>& scenes) {
+  double sum = 0.0;
+  int pairs = 0;
+  for (const std::vector<SceneEvaluation>& pair : scenes) {
+    double pair_sum = 0.0;
+    int used = 0;
+    for (const SceneEvaluation& scene : pair) {
+      if (scene.state != SceneState::kUsed) continue;
+      pair_sum += scene.cost;
+      ++used;
+    }
+    if (used == 0) continue;
+    sum += pair_sum / static_cast<double>(used);
+    ++pairs;
+  }
+  return pairs == 0 ? std::numeric_limits<double>::quiet_NaN() : sum / pairs;
+}
+
 // Standard error of the joint cost's drop from `from` to `to` (mean over the
 // pairs of each pair's mean over its used scenes): each pair's from the
 // spread of its scenes' drops, and the pairs' summed as fully correlated (an
@@ -118,12 +140,12 @@ LidarBasinCheck CheckLidarBasin(const std::vector<PairCost*>& owned, const Lidar
     }
   };
   prepare_at(sharp, answer.T_base_lidar);
-  check.cost_answer = EvaluateJoint(pairs, answer.T_base_lidar);
+  const std::vector<std::vector<SceneEvaluation>> answer_scenes = EvaluateEachScene(pairs, answer.T_base_lidar);
+  check.cost_answer = JointFromScenes(answer_scenes);
   if (!std::isfinite(check.cost_answer)) {
     check.why = "no usable scene at the answer";
     return check;
   }
-  const std::vector<std::vector<SceneEvaluation>> answer_scenes = EvaluateEachScene(pairs, answer.T_base_lidar);
   NelderMeadOptions nelder_mead = options.nelder_mead;
   if (options.pivot_at_observed_centroid) {
     nelder_mead.pivot_source = ObservedCentroid(pairs, answer.T_base_lidar).value_or(nelder_mead.pivot_source);
@@ -177,7 +199,8 @@ LidarBasinCheck CheckLidarBasin(const std::vector<PairCost*>& owned, const Lidar
         if (!answer_at_rest || !std::isfinite(lowest)) return false;
         double translation_m = 0.0, rotation_rad = 0.0;
         MeasureApart(T_lowest, answer.T_base_lidar, &translation_m, &rotation_rad);
-        return check_options.CameBack(translation_m, rotation_rad);
+        restart.came_back = check_options.CameBack(translation_m, rotation_rad);
+        return restart.came_back;
       };
       MinimiseWithLowerSolver(
           restart_options, stages, nelder_mead,
@@ -194,15 +217,16 @@ LidarBasinCheck CheckLidarBasin(const std::vector<PairCost*>& owned, const Lidar
       restart.T_base_lidar_end = T;
       MeasureApart(T, answer.T_base_lidar, &restart.translation_apart_m, &restart.rotation_apart_rad);
       prepare_at(sharp, answer.T_base_lidar);
-      restart.cost_end = EvaluateJoint(pairs, T);
-      restart.cost_drop_standard_error = CostDropStandardError(answer_scenes, EvaluateEachScene(pairs, T));
+      const std::vector<std::vector<SceneEvaluation>> end_scenes = EvaluateEachScene(pairs, T);
+      restart.cost_end = JointFromScenes(end_scenes);
+      restart.cost_drop_standard_error = CostDropStandardError(answer_scenes, end_scenes);
       check.evaluations += restart.evaluations;
       CountEnd(restart.translation_apart_m, restart.rotation_apart_rad, check_options, &check);
-      say(fmt::format("basin check {}: the start turned {:+.2f} deg about base {} ended {:.2f} cm, {:.3f} deg from "
+      say(fmt::format("basin check {}: the start turned {:+.2f} deg about base {} {} {:.2f} cm, {:.3f} deg from "
                       "the answer, cost {:.6f} (answer {:.6f})",
                       answer.lidar, sign * DegreesFromRadians(check_options.offset_rad), "xyz"[axis],
-                      100.0 * restart.translation_apart_m, DegreesFromRadians(restart.rotation_apart_rad),
-                      restart.cost_end, check.cost_answer));
+                      restart.came_back ? "came back to" : "ended", 100.0 * restart.translation_apart_m,
+                      DegreesFromRadians(restart.rotation_apart_rad), restart.cost_end, check.cost_answer));
       check.restarts.push_back(restart);
     }
   }
@@ -301,11 +325,13 @@ void AdoptRestart(int index, const BasinCheckOptions& check_options, LidarBasinC
   }
 }
 
-std::vector<Eigen::Isometry3d> EndsBesideAnswer(const LidarBasinCheck& check) {
+std::vector<Eigen::Isometry3d> EndsBesideAnswer(const LidarBasinCheck& check, const Eigen::Isometry3d& answer) {
   std::vector<Eigen::Isometry3d> ends;
   for (std::size_t i = 0; i < check.restarts.size(); ++i) {
-    ends.push_back(static_cast<int>(i) == check.adopted_restart ? check.T_base_lidar_calibrated
-                                                                : check.restarts[i].T_base_lidar_end);
+    const BasinRestart& restart = check.restarts[i];
+    if (static_cast<int>(i) == check.adopted_restart) ends.push_back(check.T_base_lidar_calibrated);
+    else if (!restart.came_back) ends.push_back(restart.T_base_lidar_end);
+    else ends.push_back(check.adopted_restart >= 0 ? check.T_base_lidar_calibrated : answer);  // where it came back to
   }
   return ends;
 }

@@ -49,8 +49,11 @@ struct BasinCheckOptions {
   // agreement bounds of the answer has come back, and stops there, when the
   // same run from the answer itself stays within them (the answer is where
   // the solver rests, so the rest of the run would only polish the approach
-  // to it). 0 runs every restart to its own convergence.
-  double came_back_fraction = 0.25;
+  // to it, and its end counts as the answer). 0 runs every restart to its own
+  // convergence. At 0.25 the restarts along a push-broom tilt crept the last
+  // few hundredths of a degree along its flat valley; 0.5 took 20-32 % fewer
+  // evaluations (BENCHMARK.md, "Basin check and uncertainty").
+  double came_back_fraction = 0.5;
   // The trajectory's scale error, 1 sigma (fraction of each distance
   // travelled; 0: not measured). The images cannot tell a scale error from a
   // shift of the lidar along the travel (docs/findings.md, "The drive's scale
@@ -91,6 +94,9 @@ struct BasinRestart {
   // they share the frames).
   double cost_drop_standard_error = 0.0;
   int evaluations = 0;
+  // Stopped once back near the answer (BasinCheckOptions::came_back_fraction):
+  // where it stopped is the stopping rule's, and it counts as the answer.
+  bool came_back = false;
 };
 
 struct LidarBasinCheck {
@@ -156,7 +162,8 @@ void AdoptRestart(int index, const BasinCheckOptions& check_options, LidarBasinC
                   Eigen::Isometry3d* T_base_lidar);
 
 // The ends the check found beside the answer: every restart's, with the
-// calibration's own answer in place of an adopted restart's.
-std::vector<Eigen::Isometry3d> EndsBesideAnswer(const LidarBasinCheck& check);
+// calibration's own answer in place of an adopted restart's, and the answer
+// itself for a restart that came back to it.
+std::vector<Eigen::Isometry3d> EndsBesideAnswer(const LidarBasinCheck& check, const Eigen::Isometry3d& answer);
 
 }  // namespace scenecal
