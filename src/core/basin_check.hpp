@@ -51,7 +51,7 @@ struct BasinCheckOptions {
   // the solver rests, so the rest of the run would only polish the approach
   // to it, and its end counts as the answer). 0 runs every restart to its own
   // convergence. At 0.25 the restarts along a push-broom tilt crept the last
-  // few hundredths of a degree along its flat valley; 0.5 took 20-32 % fewer
+  // few hundredths of a degree along its flat valley; 0.5 took 8-32 % fewer
   // evaluations (BENCHMARK.md, "Basin check and uncertainty").
   double came_back_fraction = 0.5;
   // The trajectory's scale error, 1 sigma (fraction of each distance
