@@ -333,11 +333,12 @@ TEST(ErrorEstimate, SumsItsPartsAndJudges) {
   // The same ends stopped once back near the answer: where they stopped is the stopping rule's, and they
   // count as the answer.
   LidarBasinCheck stopped_back = basin;
+  stopped_back.T_base_lidar_calibrated = answer;  // as CheckLidarBasin records it
   for (BasinRestart& restart : stopped_back.restarts) restart.came_back = true;
   estimate = EstimateLidarError(answer, local, &stopped_back, {}, false, units);
   EXPECT_NEAR(estimate.covariance_d(1, 1), 1e-6, 1e-12);
   EXPECT_DOUBLE_EQ(estimate.share_basin, 0.0);
-  for (const Eigen::Isometry3d& end : EndsBesideAnswer(stopped_back, answer)) {
+  for (const Eigen::Isometry3d& end : EndsBesideAnswer(stopped_back)) {
     EXPECT_TRUE(end.isApprox(answer));
   }
 
@@ -572,14 +573,14 @@ TEST(BasinAdoption, TakesTheLowestEndApartAndReMeasuresFromIt) {
   EXPECT_FALSE(check.agree);
 
   // The ends beside the new answer: the other restarts' and the calibration's own answer.
-  const std::vector<Eigen::Isometry3d> beside = EndsBesideAnswer(check, answer);
+  const std::vector<Eigen::Isometry3d> beside = EndsBesideAnswer(check);
   ASSERT_EQ(beside.size(), 6u);
   EXPECT_TRUE(beside[2].isApprox(calibrated));
   EXPECT_TRUE(beside[3].isApprox(moved(0.050)));
   // A restart that had come back came back to the calibration's own answer, not to the adopted one.
   LidarBasinCheck with_came_back = check;
   with_came_back.restarts[3].came_back = true;
-  EXPECT_TRUE(EndsBesideAnswer(with_came_back, answer)[3].isApprox(calibrated));
+  EXPECT_TRUE(EndsBesideAnswer(with_came_back)[3].isApprox(calibrated));
 
   // The basin part of the error estimate is the ends' second moment about the new answer.
   const UncertaintyOptions units;

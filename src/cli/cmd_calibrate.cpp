@@ -901,11 +901,12 @@ void AddAfterCalibrationOptions(CLI::App* command, CalibrateArguments* args) {
                     "the data then do not pin the extrinsic down, however small the local sigma; a run that ends "
                     "apart at a clearly lower cost becomes the answer; six runs of the last stage, each once and to "
                     "the middle stages' looser tolerance, a run stopping once back within half of 1 cm / 0.1 deg "
-                    "of an answer where the same run rests (and counting as that answer), one more run with the trajectory's distances longer by "
-                    "its scale error (--odometry-scale-sigma), and with the drift model on and no answer solved "
-                    "without it, one with the drift corrections removed (how far the model moves the answer enters "
-                    "the sigma): ~3 x its evaluations; skipped when --time-budget is spent by then; without it the "
-                    "verdict is at best weak: the local spread alone does not see a flat valley)");
+                    "of an answer where the same run rests (and counting as that answer), one more run with the "
+                    "trajectory's distances longer by its scale error (--odometry-scale-sigma), and with the drift "
+                    "model on and no answer solved without it, one with the drift corrections removed (how far the "
+                    "model moves the answer enters the sigma): ~3 x its evaluations; skipped when --time-budget is "
+                    "spent by then; without it the verdict is at best weak: the local spread alone does not see a "
+                    "flat valley)");
   command->add_flag("--keep-calibration-answer", args->keep_calibration_answer,
                     "Basin check: keep the calibration's own answer even where a restart ended apart from it (beyond "
                     "1 cm / 0.1 deg) at a cost lower by more than two standard errors of the drop over the scenes (by "

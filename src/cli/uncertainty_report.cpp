@@ -297,9 +297,9 @@ void ReportErrorEstimate(const std::vector<LidarUncertainty>& estimates, const s
     lidar.covariance = estimate.covariance_tuple;
     entry["sigma_method"] = fmt::format(
         "covariance of the error = local (flat directions: half the flat range) + the basin check's restarts' "
-        "second moment about the answer (a restart that came back counting as the answer){}{} + a floor of {} px RMS misalignment of the image edges (shared by "
-        "every scene){}; shares of its trace: local {:.2f}, basin {:.2f}, other model {:.2f}, floor {:.2f}, "
-        "scale {:.2f}",
+        "second moment about the answer (a restart that came back counting as the answer){}{} + a floor of {} px "
+        "RMS misalignment of the image edges (shared by every scene){}; shares of its trace: local {:.2f}, "
+        "basin {:.2f}, other model {:.2f}, floor {:.2f}, scale {:.2f}",
         check != nullptr && check->checked ? "" : " (no basin check ran)",
         others.empty() ? "" : " + the offset of " + others_are, error_options.alignment_floor_px,
         check != nullptr && check->scale_measured

@@ -132,6 +132,7 @@ LidarBasinCheck CheckLidarBasin(const std::vector<PairCost*>& owned, const Lidar
   const auto start = Clock::now();
   LidarBasinCheck check;
   check.lidar = answer.lidar;
+  check.T_base_lidar_calibrated = answer.T_base_lidar;
   const std::vector<const PairCost*> pairs(owned.begin(), owned.end());
   // Sharp images and visibility at the answer: the reference every end is compared in.
   const auto prepare_at = [&](const OptimisationStage& stage, const Eigen::Isometry3d& T_base_lidar) {
@@ -325,13 +326,12 @@ void AdoptRestart(int index, const BasinCheckOptions& check_options, LidarBasinC
   }
 }
 
-std::vector<Eigen::Isometry3d> EndsBesideAnswer(const LidarBasinCheck& check, const Eigen::Isometry3d& answer) {
+std::vector<Eigen::Isometry3d> EndsBesideAnswer(const LidarBasinCheck& check) {
   std::vector<Eigen::Isometry3d> ends;
   for (std::size_t i = 0; i < check.restarts.size(); ++i) {
     const BasinRestart& restart = check.restarts[i];
-    if (static_cast<int>(i) == check.adopted_restart) ends.push_back(check.T_base_lidar_calibrated);
-    else if (!restart.came_back) ends.push_back(restart.T_base_lidar_end);
-    else ends.push_back(check.adopted_restart >= 0 ? check.T_base_lidar_calibrated : answer);  // where it came back to
+    const bool adopted = static_cast<int>(i) == check.adopted_restart;
+    ends.push_back(adopted || restart.came_back ? check.T_base_lidar_calibrated : restart.T_base_lidar_end);
   }
   return ends;
 }

@@ -127,12 +127,14 @@ struct LidarBasinCheck {
   int drift_model_evaluations = 0;
   int evaluations = 0;
   double seconds = 0.0;
+  // The calibration's own answer, where the restarts started from and where
+  // a restart that came back came back to.
+  Eigen::Isometry3d T_base_lidar_calibrated = Eigen::Isometry3d::Identity();
   // Set when a restart's end replaced the answer (AdoptRestart): its index in
-  // `restarts`, and the calibration's own answer with its cost. cost_answer,
+  // `restarts`, and the calibration's own answer's cost. cost_answer,
   // the distances and `agree` are then those of the new answer; the costs
   // were all taken with the visibility at the calibration's own answer.
   int adopted_restart = -1;
-  Eigen::Isometry3d T_base_lidar_calibrated = Eigen::Isometry3d::Identity();
   double cost_calibrated = 0.0;
   double calibrated_translation_apart_m = 0.0;  // of the calibration's own answer from the new one
   double calibrated_rotation_apart_rad = 0.0;
@@ -162,8 +164,8 @@ void AdoptRestart(int index, const BasinCheckOptions& check_options, LidarBasinC
                   Eigen::Isometry3d* T_base_lidar);
 
 // The ends the check found beside the answer: every restart's, with the
-// calibration's own answer in place of an adopted restart's, and the answer
-// itself for a restart that came back to it.
-std::vector<Eigen::Isometry3d> EndsBesideAnswer(const LidarBasinCheck& check, const Eigen::Isometry3d& answer);
+// calibration's own answer in place of an adopted restart's and of one that
+// came back to it.
+std::vector<Eigen::Isometry3d> EndsBesideAnswer(const LidarBasinCheck& check);
 
 }  // namespace scenecal

@@ -356,7 +356,7 @@ LidarErrorEstimate EstimateLidarError(const Eigen::Isometry3d& T_base_lidar, con
   }
   Matrix6d basin_d = Matrix6d::Zero();
   if (basin != nullptr && basin->checked && !basin->restarts.empty()) {
-    const std::vector<Eigen::Isometry3d> ends = EndsBesideAnswer(*basin, T_base_lidar);
+    const std::vector<Eigen::Isometry3d> ends = EndsBesideAnswer(*basin);
     for (const Eigen::Isometry3d& end : ends) {
       const Vector6d e = offset_d(end);
       basin_d += e * e.transpose();
