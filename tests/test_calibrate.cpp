@@ -614,6 +614,15 @@ TEST_F(CalibrateOnSimulation, CliAutoSettingChoosesFromTheRigAndTheData) {
   // With its centred final stage, which says what became of it.
   EXPECT_EQ(three_d["options"]["final-swathe"].as<std::string>(), "centred");
   EXPECT_TRUE(three_d["settings"]["final_swathe"]);
+  // With --scheme alt, as push-broom: up to 40 alternations, the adaptive schedule, the preset's stop (the paper's
+  // 20 would end with L-BFGS's loose penalty hardly coupling the levels).
+  const YAML::Node three_d_alt = calibrate(spinning, "auto_3d_alt.yaml", quick + " --scheme alt");
+  ASSERT_TRUE(three_d_alt["settings"]) << text;
+  EXPECT_EQ(three_d_alt["options"]["setting"].as<std::string>(), "3d-lidar");
+  EXPECT_EQ(three_d_alt["settings"]["alternations_max"].as<std::string>(), "40");
+  EXPECT_EQ(three_d_alt["settings"]["alternation_schedule"].as<std::string>().rfind("adaptive (", 0), 0u);
+  EXPECT_EQ(three_d_alt["settings"]["alternation_stop"].as<std::string>(),
+            "both levels move, and disagree, by less than 0.0002 m and 0.002 deg");
 
   // The paper's pipeline, named: its options, and no choice made.
   const YAML::Node paper = calibrate(DatasetPath(), "paper.yaml", quick + " --scheme joint --setting paper");
