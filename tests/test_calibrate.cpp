@@ -623,6 +623,18 @@ TEST_F(CalibrateOnSimulation, CliAutoSettingChoosesFromTheRigAndTheData) {
   EXPECT_EQ(three_d_alt["settings"]["alternation_schedule"].as<std::string>().rfind("adaptive (", 0), 0u);
   EXPECT_EQ(three_d_alt["settings"]["alternation_stop"].as<std::string>(),
             "both levels move, and disagree, by less than 0.0002 m and 0.002 deg");
+  // The informative scene choice on a 3D lidar: the warning says it was measured worse there, before the run too.
+  const YAML::Node three_d_informative =
+      calibrate(spinning, "auto_3d_informative.yaml", quick + " --scene-choice informative");
+  ASSERT_TRUE(three_d_informative["warnings"]) << text;
+  bool warned_3d = false;
+  for (const YAML::Node& warning : three_d_informative["warnings"]) {
+    warned_3d = warned_3d || warning.as<std::string>().find("worse for a 3D lidar") != std::string::npos;
+  }
+  EXPECT_TRUE(warned_3d) << three_d_informative["warnings"];
+  const std::size_t first_warning = text.find("worse for a 3D lidar");
+  ASSERT_NE(first_warning, std::string::npos) << text;
+  EXPECT_LT(first_warning, text.find("calibrating:")) << text;
 
   // The paper's pipeline, named: its options, and no choice made.
   const YAML::Node paper = calibrate(DatasetPath(), "paper.yaml", quick + " --scheme joint --setting paper");
