@@ -10,8 +10,8 @@
 #
 # PRESETS ("robotcar trinocular"), ODOMETRY ("exact"), WORLDS ("1 2 3"), STARTS ("1 2 3"), FULL (30), HALF (15),
 # POOL (2: the informative pool of HALF scenes is the FULL spread set), each start PERTURB_T m / PERTURB_R deg
-# (0.1, 3) from the truth, DISTANCE (simulate --distance). Resumable (OUT_DIR/results.tsv); TABLE_ONLY=1 prints
-# the table again. Simulated data stay in OUT_DIR/data (reused).
+# (0.1, 3) from the truth, DISTANCE (simulate --distance), CALIBRATE_ARGS (more calibrate options for every run).
+# Resumable (OUT_DIR/results.tsv); TABLE_ONLY=1 prints the table again. Simulated data stay in OUT_DIR/data (reused).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=${1:-out/bench_scenes}
@@ -25,6 +25,7 @@ half=${HALF:-15}
 pool=${POOL:-2}
 perturb_t=${PERTURB_T:-0.1}
 perturb_r=${PERTURB_R:-3}
+read -r -a extra_args <<<"${CALIBRATE_ARGS:-}"  # more calibrate options for every run
 
 source scripts/bench_simulate.sh
 [[ -x "$scenecal" ]] || { echo "bench_scenes: $scenecal not built (scripts/build.sh)" >&2; exit 2; }
@@ -49,7 +50,8 @@ for preset in $presets; do
           status=0
           /usr/bin/time -f '%e %M' -o "$out/runs/$tag.time" "$scenecal" calibrate "$data" --output "$out/runs/$tag.yaml" \
             --seed "$start" --perturb-from-truth --perturb-translation "$perturb_t" --perturb-rotation "$perturb_r" \
-            --no-uncertainty --no-basin-check "${method_args[@]}" >"$out/runs/$tag.txt" 2>"$out/runs/$tag.log" ||
+            --no-uncertainty --no-basin-check "${method_args[@]}" "${extra_args[@]}" >"$out/runs/$tag.txt" \
+            2>"$out/runs/$tag.log" ||
             status=$?
           [[ $status == 0 ]] || { echo "bench_scenes: $tag failed (exit $status), see $out/runs/$tag.log" >&2; exit 1; }
           read -r seconds rss_kb <"$out/runs/$tag.time"

@@ -623,18 +623,28 @@ TEST_F(CalibrateOnSimulation, CliAutoSettingChoosesFromTheRigAndTheData) {
   EXPECT_EQ(three_d_alt["settings"]["alternation_schedule"].as<std::string>().rfind("adaptive (", 0), 0u);
   EXPECT_EQ(three_d_alt["settings"]["alternation_stop"].as<std::string>(),
             "both levels move, and disagree, by less than 0.0002 m and 0.002 deg");
-  // The informative scene choice on a 3D lidar: the warning says it was measured worse there, before the run too.
-  const YAML::Node three_d_informative =
-      calibrate(spinning, "auto_3d_informative.yaml", quick + " --scene-choice informative");
-  ASSERT_TRUE(three_d_informative["warnings"]) << text;
+  // The informative scene choice on a 3D lidar: made before the last stage unless --scene-choice-after is given
+  // (after the first, a simulated spin3d world lost the basin), the result's options repeat that, and it warns.
+  const std::string informative =
+      " --scenes 6 --scene-choice informative --lbfgs-iterations 2 --stages 1,0.3,0.1 --time-budget 0.3 "
+      "--final-swathe same --no-uncertainty --no-basin-check";
+  const YAML::Node three_d_informative = calibrate(spinning, "auto_3d_informative.yaml", informative);
+  ASSERT_TRUE(three_d_informative["settings"]) << text;
+  EXPECT_NE(three_d_informative["settings"]["scene_choice"].as<std::string>().find("chosen after the first 2 stage(s)"),
+            std::string::npos)
+      << three_d_informative["settings"]["scene_choice"];
+  EXPECT_EQ(three_d_informative["options"]["scene-choice-after"].as<int>(), 2);
   bool warned_3d = false;
   for (const YAML::Node& warning : three_d_informative["warnings"]) {
-    warned_3d = warned_3d || warning.as<std::string>().find("worse for a 3D lidar") != std::string::npos;
+    warned_3d = warned_3d || warning.as<std::string>().find("no gain for a 3D lidar") != std::string::npos;
   }
   EXPECT_TRUE(warned_3d) << three_d_informative["warnings"];
-  const std::size_t first_warning = text.find("worse for a 3D lidar");
-  ASSERT_NE(first_warning, std::string::npos) << text;
-  EXPECT_LT(first_warning, text.find("calibrating:")) << text;
+  const YAML::Node three_d_given =
+      calibrate(spinning, "auto_3d_informative_given.yaml", informative + " --scene-choice-after 1");
+  ASSERT_TRUE(three_d_given["settings"]) << text;
+  EXPECT_NE(three_d_given["settings"]["scene_choice"].as<std::string>().find("chosen after the first 1 stage(s)"),
+            std::string::npos)
+      << three_d_given["settings"]["scene_choice"];
 
   // The paper's pipeline, named: its options, and no choice made.
   const YAML::Node paper = calibrate(DatasetPath(), "paper.yaml", quick + " --scheme joint --setting paper");
