@@ -506,6 +506,11 @@ std::string NarrowScheduleForFewFrames(const CalibrateArguments& args, const Cal
   return text;
 }
 
+bool AnyThreeDLidar(const Rig& rig) {
+  return std::any_of(rig.lidars.begin(), rig.lidars.end(),
+                     [](const LidarInfo& lidar) { return lidar.kind == LidarKind::k3d; });
+}
+
 // The informative scene choice on a rig with a 3D lidar, --scene-choice-after
 // not given: before the schedule's last stage. Chosen after the first stage,
 // one simulated spin3d world of three lost the basin from both starts (16-17
@@ -514,11 +519,6 @@ std::string NarrowScheduleForFewFrames(const CalibrateArguments& args, const Cal
 // not); before the last stage every run ended within 0.55 cm. On the push-broom
 // rigs the first stage was enough and the choice after it was the more accurate
 // in translation (BENCHMARK.md, "Informative scenes").
-bool AnyThreeDLidar(const Rig& rig) {
-  return std::any_of(rig.lidars.begin(), rig.lidars.end(),
-                     [](const LidarInfo& lidar) { return lidar.kind == LidarKind::k3d; });
-}
-
 void ChooseLateForThreeDLidars(const CalibrateArguments& args, const Rig& rig, CalibrationOptions* options) {
   if (options->scenes.choice != SceneChoice::kInformative || options->scheme == CalibrationScheme::kAlt) return;
   CLI::Option* after = args.command->get_option("--scene-choice-after");
