@@ -130,6 +130,25 @@ TEST_F(UncertaintyOnSimulation, FewerScenesGiveALargerSigma) {
   EXPECT_LT(median, 2.6);
 }
 
+// Where the basin check ran, a side of the search stops once two steps in a
+// row rose significantly: the same sigmas as the full search (no cost comes
+// back within k further out on this drive), on fewer evaluations.
+TEST_F(UncertaintyOnSimulation, StoppingAtAConfirmedRiseKeepsTheSigmas) {
+  const LidarUncertainty full = AtTruth(24);
+  UncertaintyOptions stopping;
+  stopping.search_past_rise = false;
+  const LidarUncertainty stopped = AtTruth(24, stopping);
+  ASSERT_TRUE(full.estimated && stopped.estimated) << full.why << stopped.why;
+  ASSERT_EQ(full.directions.size(), stopped.directions.size());
+  for (std::size_t i = 0; i < full.directions.size(); ++i) {
+    EXPECT_EQ(full.directions[i].determined, stopped.directions[i].determined) << "direction " << i;
+    EXPECT_DOUBLE_EQ(full.directions[i].sigma_units, stopped.directions[i].sigma_units) << "direction " << i;
+  }
+  // 1 + 42 for the Hessian, then 7 steps a side in full.
+  EXPECT_EQ(full.evaluations, 1 + 42 + 6 * 2 * 7);
+  EXPECT_LT(stopped.evaluations, full.evaluations - 12);
+}
+
 // edge_information_d in the base axes against each camera's own information
 // (SceneSwathe::AlignmentInformation, camera axes) with the change carried
 // into the camera by the library's own transform updates: the same squared
@@ -206,6 +225,10 @@ TEST_F(UncertaintyOnSimulation, CliWritesTheEstimate) {
   EXPECT_TRUE(entry["estimated"].as<bool>());
   EXPECT_EQ(entry["scenes"].as<int>(), 12);
   EXPECT_EQ(entry["directions"].size(), 6u);
+  // The basin check ran, so the search stopped each side at a confirmed rise (a full search takes 127).
+  if (entry["determined"].as<bool>()) {
+    EXPECT_LT(entry["evaluations"].as<int>(), 127);
+  }
   // The local sigma is there exactly when every direction is determined.
   EXPECT_EQ(entry["local_sigma_tuple"].IsDefined(), entry["determined"].as<bool>());
   // FORMAT.md's sigma and covariance of the result: local + the basin check's restarts, so at least the local

@@ -397,7 +397,7 @@ void CheckAnswer(const CalibrateArguments& args, const CalibrationOptions& optio
       spdlog::info("uncertainty: the frames' drift corrections are held as estimated at the answer; their own "
                    "freedom is not in it (with --motion-correction the error can be several times larger)");
     }
-    (*extra)["uncertainty"] = ReportUncertainty(calibrator, result, &local_estimates);
+    (*extra)["uncertainty"] = ReportUncertainty(calibrator, basin_checks, result, &local_estimates);
   }
   if (!local_estimates.empty()) {
     YAML::Node uncertainty = (*extra)["uncertainty"];

@@ -22,15 +22,15 @@ YAML::Node Numbers(const double* values, int count) {
 
 }  // namespace
 
-YAML::Node ReportUncertainty(Calibrator& calibrator, CalibrationResult* result,
-                             std::vector<LidarUncertainty>* estimates_out) {
+YAML::Node ReportUncertainty(Calibrator& calibrator, const std::vector<LidarBasinCheck>& basin_checks,
+                             CalibrationResult* result, std::vector<LidarUncertainty>* estimates_out) {
   const auto start = std::chrono::steady_clock::now();
   const UncertaintyOptions uncertainty_options;
   spdlog::info("estimating the uncertainty of the result (B-spline metric; paired scene-by-scene cost changes along "
                "the Hessian's directions, up to {:.0f} cm / {:.1f} deg)",
                100.0 * uncertainty_options.max_search_units * uncertainty_options.unit_translation_m,
                uncertainty_options.max_search_units * uncertainty_options.unit_rotation_rad * 180.0 / M_PI);
-  *estimates_out = calibrator.EstimateUncertainty(*result, uncertainty_options);
+  *estimates_out = calibrator.EstimateUncertainty(*result, uncertainty_options, basin_checks);
   const std::vector<LidarUncertainty>& estimates = *estimates_out;
   YAML::Node node(YAML::NodeType::Map);
   const double deg = 180.0 / M_PI;

@@ -25,9 +25,11 @@ using LidarVerdicts = std::map<std::string, std::pair<std::string, std::string>>
 // Estimates every lidar's uncertainty at the result, on the calibrator's pair
 // costs, and adds warnings; returns the `uncertainty` mapping (by lidar name)
 // for the result file. Logs with spdlog.
+// basin_checks: the basin check's results (ReportBasinCheck), empty when it
+// did not run; a checked lidar's local search leaves the other basins to it.
 // *estimates: the estimates themselves, per lidar of the result.
-YAML::Node ReportUncertainty(Calibrator& calibrator, CalibrationResult* result,
-                             std::vector<LidarUncertainty>* estimates);
+YAML::Node ReportUncertainty(Calibrator& calibrator, const std::vector<LidarBasinCheck>& basin_checks,
+                             CalibrationResult* result, std::vector<LidarUncertainty>* estimates);
 
 // The global check (core/basin_check.hpp): restarts from the answer turned
 // +-offset_deg about each base axis; with `adopt`, a restart that ends apart at

@@ -478,13 +478,19 @@ PairCost* Calibrator::PairAt(const std::string& camera, const std::string& lidar
 }
 
 std::vector<LidarUncertainty> Calibrator::EstimateUncertainty(const CalibrationResult& result,
-                                                              const UncertaintyOptions& uncertainty_options) {
+                                                              const UncertaintyOptions& uncertainty_options,
+                                                              const std::vector<LidarBasinCheck>& basin_checks) {
   std::vector<LidarUncertainty> estimates;
   for (const LidarCalibration& lidar : result.lidars) {
+    UncertaintyOptions options = uncertainty_options;
+    const bool basin_checked = std::any_of(basin_checks.begin(), basin_checks.end(), [&](const LidarBasinCheck& c) {
+      return c.lidar == lidar.lidar && c.checked;
+    });
+    if (basin_checked) options.search_past_rise = false;
     // On the smooth cost of the same swathes: the hard one is piecewise constant.
     const std::vector<PairCost*> pairs = PairsAt(lidar.lidar, lidar.T_base_lidar, Binning::kBSpline);
     const std::vector<const PairCost*> views(pairs.begin(), pairs.end());
-    estimates.push_back(EstimateLidarUncertainty(views, lidar.T_base_lidar, uncertainty_options));
+    estimates.push_back(EstimateLidarUncertainty(views, lidar.T_base_lidar, options));
     for (PairCost* pair : pairs) pair->SetBinning(options_.cost.histogram.binning);
   }
   return estimates;

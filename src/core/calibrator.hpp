@@ -70,9 +70,12 @@ class Calibrator {
   PairCost* PairAt(const std::string& camera, const std::string& lidar, const Eigen::Isometry3d& T_base_lidar);
 
   // Each lidar's local uncertainty at the result (core/uncertainty.hpp), on
-  // the B-spline cost of the same swathes.
+  // the B-spline cost of the same swathes. A lidar with a checked basin in
+  // basin_checks (by name) is searched without search_past_rise: the check's
+  // restarts look for the other basins.
   std::vector<LidarUncertainty> EstimateUncertainty(const CalibrationResult& result,
-                                                    const UncertaintyOptions& uncertainty_options);
+                                                    const UncertaintyOptions& uncertainty_options,
+                                                    const std::vector<LidarBasinCheck>& basin_checks = {});
   // The held-out drift test (core/motion_estimation.hpp) with every lidar at
   // its answer in `result`, all lidars' swathes of a camera frame together
   // (the drift is the trajectory's).

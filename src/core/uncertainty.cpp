@@ -143,7 +143,7 @@ class RiseSearch {
   RiseSearch(UnitCosts* costs, const std::map<TimeUs, double>& at_estimate, const Eigen::Isometry3d& T_base_lidar,
              const Vector6d& scale, const UncertaintyOptions& options)
       : costs_(costs), at_estimate_(at_estimate), T_base_lidar_(T_base_lidar), scale_(scale),
-        k_(options.significance) {
+        k_(options.significance), search_past_rise_(options.search_past_rise) {
     for (double a = 0.25; a <= options.max_search_units + 1e-9; a *= 2.0) steps_.push_back(a);
   }
 
@@ -165,12 +165,14 @@ class RiseSearch {
   }
 
  private:
-  // The search goes on past the first significant rise: a cost that comes
-  // back within k standard errors further out means another basin the data
-  // cannot tell from this one, and the side counts as without a crossing.
+  // The search goes on past the first significant rise (unless
+  // search_past_rise is off): a cost that comes back within k standard
+  // errors further out means another basin the data cannot tell from this
+  // one, and the side counts as without a crossing.
   SideCrossing Side(const Vector6d& x, double sign) {
     SideCrossing side;
     double previous_step = 0.0, previous_ratio = 0.0;
+    int significant_in_a_row = 0;
     for (const double a : steps_) {
       const PairedChange change =
           Compare(at_estimate_, costs_->Evaluate(Moved(T_base_lidar_, scale_.cwiseProduct(sign * a * x))));
@@ -183,6 +185,8 @@ class RiseSearch {
       }
       previous_step = a;
       previous_ratio = std::max(0.0, ratio);  // below zero: the cost fell; the rise starts from here
+      significant_in_a_row = ratio > k_ ? significant_in_a_row + 1 : 0;
+      if (!search_past_rise_ && significant_in_a_row >= 2) break;
     }
     // Indistinct beyond the first crossing: no crossing on this side after all.
     if (side.crossing > 0.0 && side.farthest_indistinct > side.crossing) side.crossing = -1.0;
@@ -194,6 +198,7 @@ class RiseSearch {
   const Eigen::Isometry3d& T_base_lidar_;
   const Vector6d& scale_;
   double k_;                   // significance: standard errors of a significant rise
+  bool search_past_rise_;      // UncertaintyOptions::search_past_rise
   std::vector<double> steps_;  // search steps, units
 };
 

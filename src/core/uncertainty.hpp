@@ -49,6 +49,14 @@ struct UncertaintyOptions {
   double max_search_units = 16.0;
   // Fewer independent scene units than this: no estimate.
   int min_units = 8;
+  // Search on past the first significant rise, to the largest step, for a
+  // cost that comes back within k standard errors (another basin the data
+  // cannot tell from this one: the side then counts as flat). Where the basin
+  // check ran, its restarts look for the other basins, and a side stops once
+  // two steps in a row rose significantly (the second confirms the first
+  // against a noisy crossing); the sigmas are the same unless a cost comes
+  // back after that.
+  bool search_past_rise = true;
 
   bool IsValid(std::string* why = nullptr) const;
 };
