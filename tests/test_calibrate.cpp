@@ -1831,6 +1831,7 @@ TEST_F(CalibrateOnSimulation, BasinCheckRestartsAboutEachAxisAndComparesTheEnds)
   loose.agree_translation_m = 0.03;
   loose.agree_rotation_rad = RadiansFromDegrees(0.5);
   loose.came_back_fraction = 0.9;
+  loose.at_rest_fraction = 0.9;
   BasinCheckOptions to_convergence = loose;
   to_convergence.came_back_fraction = 0.0;
   const std::vector<LidarBasinCheck> stopped_checks = lbfgs_calibrator.CheckBasins(result, loose);
@@ -1872,6 +1873,10 @@ TEST_F(CalibrateOnSimulation, BasinCheckRestartsAboutEachAxisAndComparesTheEnds)
   bad.came_back_fraction = 1.0;
   EXPECT_FALSE(bad.IsValid(&why));
   EXPECT_NE(why.find("came-back"), std::string::npos);
+  bad = check_options;
+  bad.at_rest_fraction = 0.0;
+  EXPECT_FALSE(bad.IsValid(&why));
+  EXPECT_NE(why.find("at-rest"), std::string::npos);
 }
 
 // An answer 4 cm off the truth across the travel: restarts from it end near

@@ -937,7 +937,7 @@ void AddAfterCalibrationOptions(CLI::App* command, CalibrateArguments* args) {
                     "the answer turned +-1 deg about each base axis, and a warning says when those runs end apart: "
                     "the data then do not pin the extrinsic down, however small the local sigma; a run that ends "
                     "apart at a clearly lower cost becomes the answer; six runs of the last stage, each once and to "
-                    "the middle stages' looser tolerance, a run stopping once back within half of 1 cm / 0.1 deg "
+                    "the middle stages' looser tolerance, a run stopping once back within 0.9 cm / 0.09 deg "
                     "of an answer where the same run rests (and counting as that answer), one more run with the "
                     "trajectory's distances longer by its scale error (--odometry-scale-sigma), and with the drift "
                     "model on and no answer solved without it, one with the drift corrections removed (how far the "

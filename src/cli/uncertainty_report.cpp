@@ -122,11 +122,11 @@ YAML::Node ReportBasinCheck(Calibrator& calibrator, double offset_deg, bool adop
     entry["method"] = fmt::format(
         "joint cost minimised again (the last {} stage(s) of the schedule, each run once, L-BFGS to the middle "
         "stages' function tolerance; when the same run from the answer itself stays within {} of the agreement "
-        "bounds, a restart stops once back within them too) from the calibration's answer turned "
+        "bounds, a restart stops once back within {} of them) from the calibration's answer turned "
         "+-{} deg about each base axis through the lidar origin; agree = every end within {} cm and {} deg of the "
         "answer; costs with sharp images and visibility at the calibration's answer; a restart that ends apart at a "
         "lower cost (by more than {} standard errors of the drop over the scenes) becomes the answer{}",
-        check_options.last_stages, check_options.came_back_fraction, offset_deg,
+        check_options.last_stages, check_options.at_rest_fraction, check_options.came_back_fraction, offset_deg,
         100.0 * check_options.agree_translation_m, check_options.agree_rotation_rad * deg,
         check_options.adopt_min_standard_errors,
         adopt ? "" : " (not in this run: --keep-calibration-answer)");

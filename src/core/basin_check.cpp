@@ -102,6 +102,8 @@ bool BasinCheckOptions::IsValid(std::string* why) const {
     return Invalid(why, "basin check: the standard errors a lower end must clear must be a number >= 0");
   if (!(std::isfinite(came_back_fraction) && came_back_fraction >= 0.0 && came_back_fraction < 1.0))
     return Invalid(why, "basin check: the came-back fraction of the agreement bounds must be in [0, 1)");
+  if (!(std::isfinite(at_rest_fraction) && at_rest_fraction > 0.0 && at_rest_fraction < 1.0))
+    return Invalid(why, "basin check: the at-rest fraction of the agreement bounds must be in (0, 1)");
   if (!(std::isfinite(scale_sigma) && scale_sigma >= 0.0 && scale_sigma < 0.2))
     return Invalid(why, "basin check: the trajectory's scale sigma must be a fraction in [0, 0.2)");
   return true;
@@ -171,7 +173,7 @@ LidarBasinCheck CheckLidarBasin(const std::vector<PairCost*>& owned, const Lidar
     check.answer_rest_evaluations = report.evaluations;
     double translation_m = 0.0, rotation_rad = 0.0;
     MeasureApart(T, answer.T_base_lidar, &translation_m, &rotation_rad);
-    answer_at_rest = check_options.CameBack(translation_m, rotation_rad);
+    answer_at_rest = check_options.AtRest(translation_m, rotation_rad);
   }
   check.answer_at_rest = answer_at_rest;
 
